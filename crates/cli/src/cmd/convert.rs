@@ -1,0 +1,62 @@
+//! `octowrap convert`: read any supported input, write any writable format.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::bail;
+use octowrap_io::{Format, WriteOptions};
+
+use super::input::{InputArgs, parse_format};
+
+/// Convert a point cloud or mesh between formats.
+///
+/// The input format is detected from the content (signature) and the extension; the output
+/// format comes from OUTPUT's extension or `--to`. Use `-` for standard input or output.
+/// The output is written to a temporary file and renamed into place, so a failed run leaves
+/// nothing half-written.
+///
+/// Examples:
+///   octowrap convert scan.laz scan.ply
+///   octowrap convert dragon_vrip.ply.gz dragon.obj
+///   gunzip -c cloud.xyz.gz | octowrap convert - --from xyz cloud.ply
+///   octowrap convert depth.exr --camera 525,525,319.5,239.5 depth.ply
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Input file (`-` for standard input).
+    pub input: PathBuf,
+    /// Output file (`-` for standard output, with `--to`).
+    pub output: PathBuf,
+    /// Output format, when OUTPUT's extension does not say: ply, obj, off, stl, xyz.
+    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
+    pub to: Option<Format>,
+    /// Write text instead of binary (PLY, STL).
+    #[arg(long)]
+    pub ascii: bool,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let to = args.to.or_else(|| Format::from_path(&args.output));
+    let Some(to) = to else {
+        bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
+    };
+    if !to.writable() {
+        bail!("octowrap reads {to} files but does not write them; writable: ply, obj, off, stl, xyz");
+    }
+    let mesh = args.input_args.read(&args.input)?;
+    if !mesh.faces.is_empty() && !to.holds_faces() {
+        eprintln!(
+            "note: {to} holds points only: writing the {} vertices, dropping the {} faces",
+            mesh.vertex_count(),
+            mesh.faces.len()
+        );
+    }
+    let mut opts = WriteOptions::default();
+    opts.format = Some(to);
+    opts.ascii = args.ascii;
+    octowrap_io::write_path(&args.output, &mesh, &opts)?;
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,120 @@
+//! `octowrap info`: what a file holds.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use octowrap_mesh::Mesh;
+use serde::Serialize;
+
+use super::input::InputArgs;
+
+/// Print counts, bounding box, attributes and face sizes of point clouds and meshes.
+///
+/// Examples:
+///   octowrap info bunny.ply
+///   octowrap info --json scans/*.laz
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Files to describe (`-` for standard input).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Print one JSON object per file (a JSON array for several files) instead of text.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+/// What `info` reports about one file.
+#[derive(Debug, Serialize)]
+pub struct Report {
+    /// The file as given.
+    pub file: String,
+    /// The detected or forced format.
+    pub format: String,
+    /// Number of points (vertices).
+    pub points: usize,
+    /// Number of faces.
+    pub faces: usize,
+    /// Sum of face sizes.
+    pub corners: usize,
+    /// Per-point attributes besides position.
+    pub attributes: Vec<&'static str>,
+    /// Smallest corner of the bounding box of the finite points (absent when there are none).
+    pub bbox_min: Option<[f64; 3]>,
+    /// Largest corner.
+    pub bbox_max: Option<[f64; 3]>,
+    /// Bounding-box diagonal.
+    pub diagonal: f64,
+    /// Points with a NaN or infinite coordinate.
+    pub non_finite_points: usize,
+    /// `[face size, count]` pairs.
+    pub face_sizes: Vec<[usize; 2]>,
+}
+
+impl Report {
+    /// Describes `mesh`, read from `file` as `format`.
+    pub fn new(file: &Path, format: &str, mesh: &Mesh) -> Self {
+        let b = mesh.vertices.bounds();
+        let (bbox_min, bbox_max) =
+            if b.is_empty() { (None, None) } else { (Some(b.min.to_array()), Some(b.max.to_array())) };
+        Self {
+            file: file.display().to_string(),
+            format: format.to_owned(),
+            points: mesh.vertex_count(),
+            faces: mesh.faces.len(),
+            corners: mesh.faces.corner_count(),
+            attributes: mesh.vertices.attribute_names(),
+            bbox_min,
+            bbox_max,
+            diagonal: b.diagonal(),
+            non_finite_points: mesh.vertices.non_finite_count(),
+            face_sizes: mesh.faces.size_histogram().into_iter().map(|(s, c)| [s, c]).collect(),
+        }
+    }
+
+    fn print_text(&self) {
+        println!("{}", self.file);
+        println!("  format      {}", self.format);
+        println!("  points      {}", self.points);
+        println!("  faces       {}", self.faces);
+        if !self.attributes.is_empty() {
+            println!("  attributes  {}", self.attributes.join(", "));
+        }
+        if let (Some(lo), Some(hi)) = (self.bbox_min, self.bbox_max) {
+            println!("  bbox min    {:.6} {:.6} {:.6}", lo[0], lo[1], lo[2]);
+            println!("  bbox max    {:.6} {:.6} {:.6}", hi[0], hi[1], hi[2]);
+            println!("  diagonal    {:.6}", self.diagonal);
+        }
+        if self.non_finite_points > 0 {
+            println!("  non-finite  {} points", self.non_finite_points);
+        }
+        if !self.face_sizes.is_empty() {
+            let h: Vec<String> = self.face_sizes.iter().map(|[s, c]| format!("{s}-gons: {c}")).collect();
+            println!("  face sizes  {}", h.join(", "));
+        }
+    }
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let mut reports = Vec::new();
+    for file in &args.files {
+        let (format, mesh) = args.input_args.read_detected(file)?;
+        reports.push(Report::new(file, format.name(), &mesh));
+    }
+    if args.json {
+        let out = if reports.len() == 1 {
+            serde_json::to_string_pretty(&reports[0])?
+        } else {
+            serde_json::to_string_pretty(&reports)?
+        };
+        println!("{out}");
+    } else {
+        for r in &reports {
+            r.print_text();
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,17 @@
+//! One module per subcommand.
+
+pub mod convert;
+pub mod info;
+pub mod input;
+
+use std::process::ExitCode;
+
+use crate::args::{Cli, Command};
+
+/// Runs the chosen subcommand.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Convert(a) => convert::run(&a),
+        Command::Info(a) => info::run(&a),
+    }
+}

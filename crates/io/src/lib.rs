@@ -1,0 +1,443 @@
+//! Readers and writers for every point and mesh format octowrap's users bring.
+//!
+//! | format | read | write | notes |
+//! |---|---|---|---|
+//! | PLY | ascii, binary LE/BE | binary LE (default), ascii | extra vertex properties skipped; any integer list type |
+//! | OBJ | yes | yes | quads and n-gons kept; negative indices |
+//! | OFF | yes | yes | `OFF`, `COFF`, `NOFF`, `CNOFF` headers |
+//! | STL | ascii, binary | binary (ascii on request) | polygons are fan-triangulated on write |
+//! | XYZ / PTS / PWN | yes | yes (XYZ) | whitespace columns: `x y z [nx ny nz]` |
+//! | PCD | ascii, binary, binary_compressed | – | |
+//! | LAS / LAZ | yes (COPC as plain LAZ) | – | scaled coordinates kept in `f64` |
+//! | E57 | yes | – | Cartesian and spherical; several scans merged with their poses |
+//! | OpenEXR | yes | – | depth `Z` plus a [`PinholeCamera`], or RGB = XYZ positions |
+//! | Stanford `.conf` | yes | – | range scans merged with their poses |
+//!
+//! Any input may be gzip-compressed (`.ply.gz`); it is decompressed transparently. The format is
+//! chosen from the content when it has a signature (magic bytes), else from the extension, else
+//! from a look at the text ([`Format::detect`]).
+//!
+//! # Hostile input
+//! Every reader works on the whole (decompressed) input in memory and checks each count a header
+//! declares against the bytes that remain before allocating for it ([`Limits`]), so a header that
+//! declares 10^12 vertices in a 1 kB file fails at once with [`ErrorKind::LimitExceeded`]. Errors
+//! name the file, the byte offset or line, and what was expected. No reader panics on any input.
+//!
+//! # Writing
+//! [`write_path`] writes to a temporary file beside the target and renames it into place, so a
+//! failed or interrupted run never leaves a half-written file.
+//!
+//! ```no_run
+//! use octowrap_io::{read_path, write_path, ReadOptions, WriteOptions};
+//! let mesh = read_path("bunny.ply".as_ref(), &ReadOptions::default())?;
+//! write_path("bunny.obj".as_ref(), &mesh, &WriteOptions::default())?;
+//! # Ok::<(), octowrap_io::Error>(())
+//! ```
+
+mod error;
+mod text;
+
+mod conf;
+mod e57;
+mod exr;
+mod las;
+mod obj;
+mod off;
+mod pcd;
+mod ply;
+mod stl;
+mod xyz;
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+pub use error::{Error, ErrorKind, Location, Result};
+pub use octowrap_mesh::Mesh;
+
+/// The file formats octowrap reads or writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Format {
+    /// Stanford polygon format.
+    Ply,
+    /// Wavefront OBJ.
+    Obj,
+    /// Object File Format.
+    Off,
+    /// Stereolithography (triangles).
+    Stl,
+    /// Whitespace-separated point columns (`.xyz`, `.pts`, `.pwn`, `.txt`).
+    Xyz,
+    /// Point Cloud Library's format.
+    Pcd,
+    /// ASPRS LAS, or LAZ (its compressed form, COPC included).
+    Las,
+    /// ASTM E57 3D imaging data.
+    E57,
+    /// OpenEXR image (depth or XYZ positions).
+    Exr,
+    /// A Stanford `.conf` scan set: range scans with poses.
+    Conf,
+}
+
+impl Format {
+    /// Every format, in the order of the table above.
+    pub const ALL: [Self; 10] =
+        [Self::Ply, Self::Obj, Self::Off, Self::Stl, Self::Xyz, Self::Pcd, Self::Las, Self::E57, Self::Exr, Self::Conf];
+
+    /// A short lowercase name (`ply`, `obj`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Ply => "ply",
+            Self::Obj => "obj",
+            Self::Off => "off",
+            Self::Stl => "stl",
+            Self::Xyz => "xyz",
+            Self::Pcd => "pcd",
+            Self::Las => "las",
+            Self::E57 => "e57",
+            Self::Exr => "exr",
+            Self::Conf => "conf",
+        }
+    }
+
+    /// Whether octowrap can write this format.
+    pub fn writable(self) -> bool {
+        matches!(self, Self::Ply | Self::Obj | Self::Off | Self::Stl | Self::Xyz)
+    }
+
+    /// Whether the format can hold faces.
+    pub fn holds_faces(self) -> bool {
+        matches!(self, Self::Ply | Self::Obj | Self::Off | Self::Stl)
+    }
+
+    /// The format an extension names (case-insensitive, without the dot; `gz` is not a format).
+    pub fn from_extension(ext: &str) -> Option<Self> {
+        Some(match ext.to_ascii_lowercase().as_str() {
+            "ply" => Self::Ply,
+            "obj" => Self::Obj,
+            "off" | "coff" | "noff" => Self::Off,
+            "stl" => Self::Stl,
+            "xyz" | "pts" | "pwn" | "txt" | "asc" => Self::Xyz,
+            "pcd" => Self::Pcd,
+            "las" | "laz" => Self::Las,
+            "e57" => Self::E57,
+            "exr" => Self::Exr,
+            "conf" => Self::Conf,
+            _ => return None,
+        })
+    }
+
+    /// The format a path's extension names, looking through a trailing `.gz`.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let name = path.file_name()?.to_str()?;
+        let name = strip_gz(name);
+        let ext = Path::new(name).extension()?.to_str()?;
+        Self::from_extension(ext)
+    }
+
+    /// The format whose signature starts `data`, for formats that have one.
+    pub fn sniff(data: &[u8]) -> Option<Self> {
+        let starts = |m: &[u8]| data.starts_with(m);
+        if starts(b"ply\n") || starts(b"ply\r\n") {
+            Some(Self::Ply)
+        } else if starts(b"LASF") {
+            Some(Self::Las)
+        } else if starts(b"ASTM-E57") {
+            Some(Self::E57)
+        } else if starts(&[0x76, 0x2f, 0x31, 0x01]) {
+            Some(Self::Exr)
+        } else if stl::looks_binary(data) {
+            Some(Self::Stl)
+        } else {
+            None
+        }
+    }
+
+    /// Guesses a text format from its first lines, for inputs with neither a signature nor a
+    /// known extension (standard input, say).
+    pub fn guess_text(data: &[u8]) -> Option<Self> {
+        let head = &data[..data.len().min(4096)];
+        let text = String::from_utf8_lossy(head);
+        let first = text.lines().map(str::trim).find(|l| !l.is_empty())?;
+        let word = first.split_whitespace().next().unwrap_or("");
+        if word.ends_with("OFF") && word.len() <= 5 {
+            return Some(Self::Off);
+        }
+        if word == "solid" {
+            return Some(Self::Stl);
+        }
+        if first.starts_with("# .PCD") || word == "VERSION" {
+            return Some(Self::Pcd);
+        }
+        if word == "camera" || word == "bmesh" || word == "mesh" {
+            return Some(Self::Conf);
+        }
+        let obj_words = ["v", "vn", "vt", "f", "o", "g", "s", "usemtl", "mtllib", "l"];
+        if text.lines().map(str::trim).any(|l| obj_words.contains(&l.split_whitespace().next().unwrap_or(""))) {
+            return Some(Self::Obj);
+        }
+        if first.split_whitespace().all(|t| t.parse::<f64>().is_ok()) {
+            return Some(Self::Xyz);
+        }
+        None
+    }
+
+    /// Picks the format of an input: its signature first (content beats a wrong extension), then
+    /// `path`'s extension, then a look at the text.
+    pub fn detect(path: Option<&Path>, data: &[u8]) -> Option<Self> {
+        Self::sniff(data).or_else(|| path.and_then(Self::from_path)).or_else(|| Self::guess_text(data))
+    }
+}
+
+impl std::fmt::Display for Format {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+fn strip_gz(name: &str) -> &str {
+    let n = name.len();
+    if n > 3 && name[n - 3..].eq_ignore_ascii_case(".gz") { &name[..n - 3] } else { name }
+}
+
+/// Caps on what a reader will allocate, checked before allocating. Every reader also refuses any
+/// count its remaining input cannot hold, whatever the limits say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Limits {
+    /// Most points (vertices) one input may hold. Default: `u32::MAX`, since faces index with `u32`.
+    pub max_points: u64,
+    /// Most faces one input may hold. Default: `u32::MAX`.
+    pub max_faces: u64,
+    /// Most bytes a compressed input may expand to. Default: 8 GiB.
+    pub max_decompressed_bytes: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self { max_points: u64::from(u32::MAX), max_faces: u64::from(u32::MAX), max_decompressed_bytes: 8 << 30 }
+    }
+}
+
+/// A pinhole camera for turning a depth image into points: pixel `(u, v)` with depth `z` (along
+/// the optical axis) becomes `((u + 0.5 - cx) z / fx, (v + 0.5 - cy) z / fy, z)` in camera space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinholeCamera {
+    /// Focal length in pixels, horizontal.
+    pub fx: f64,
+    /// Focal length in pixels, vertical.
+    pub fy: f64,
+    /// Principal point, pixels from the left edge.
+    pub cx: f64,
+    /// Principal point, pixels from the top edge.
+    pub cy: f64,
+}
+
+/// How to read an input.
+#[derive(Clone, Debug, Default)]
+#[non_exhaustive]
+pub struct ReadOptions {
+    /// Caps checked before allocating.
+    pub limits: Limits,
+    /// Force a format instead of detecting it.
+    pub format: Option<Format>,
+    /// Camera for depth images (OpenEXR `Z`). Without it, an EXR must hold XYZ positions in RGB.
+    pub camera: Option<PinholeCamera>,
+}
+
+/// How to write an output.
+#[derive(Clone, Debug, Default)]
+#[non_exhaustive]
+pub struct WriteOptions {
+    /// Force a format instead of taking it from the extension.
+    pub format: Option<Format>,
+    /// Text instead of binary where the format has both (PLY, STL).
+    pub ascii: bool,
+}
+
+/// Reads a point cloud or mesh from a file (`-` for standard input).
+pub fn read_path(path: &Path, opts: &ReadOptions) -> Result<Mesh> {
+    read_path_detected(path, opts).map(|(_, mesh)| mesh)
+}
+
+/// Like [`read_path`], also telling which format was read.
+pub fn read_path_detected(path: &Path, opts: &ReadOptions) -> Result<(Format, Mesh)> {
+    let name = display_name(path, "<stdin>");
+    let data = if path == Path::new("-") {
+        let mut v = Vec::new();
+        std::io::stdin().lock().read_to_end(&mut v).map_err(|e| Error::io(e).in_file(&name))?;
+        v
+    } else {
+        std::fs::read(path).map_err(|e| Error::io(e).in_file(&name))?
+    };
+    let data = decompress_if_gzip(data, &opts.limits).map_err(|e| e.in_file(&name))?;
+    let format = opts.format.or_else(|| Format::detect(Some(path), &data)).ok_or_else(|| {
+        Error::unsupported(Location::Unknown, "cannot tell the format from the extension or the content").in_file(&name)
+    })?;
+    if format == Format::Conf {
+        return conf::read(path, &data, opts).map(|m| (format, m)).map_err(|e| e.in_file(&name));
+    }
+    read_bytes(&data, format, opts).map(|m| (format, m)).map_err(|e| e.in_file(&name))
+}
+
+/// Reads an in-memory input (already decompressed) of a known format. The error names no file:
+/// callers add it with [`Error::in_file`]. Stanford `.conf` sets refer to other files and need
+/// [`read_path`].
+pub fn read_bytes(data: &[u8], format: Format, opts: &ReadOptions) -> Result<Mesh> {
+    let mesh = match format {
+        Format::Ply => ply::read(data, opts),
+        Format::Obj => obj::read(data, opts),
+        Format::Off => off::read(data, opts),
+        Format::Stl => stl::read(data, opts),
+        Format::Xyz => xyz::read(data, opts),
+        Format::Pcd => pcd::read(data, opts),
+        Format::Las => las::read(data, opts),
+        Format::E57 => e57::read(data, opts),
+        Format::Exr => exr::read(data, opts),
+        Format::Conf => {
+            Err(Error::unsupported(Location::Unknown, "a .conf scan set refers to other files: read it by path"))
+        }
+    }?;
+    debug_assert!(mesh.vertices.attributes_consistent());
+    Ok(mesh)
+}
+
+/// Decompresses `data` if it starts with the gzip signature, refusing to expand beyond
+/// `limits.max_decompressed_bytes`.
+pub fn decompress_if_gzip(data: Vec<u8>, limits: &Limits) -> Result<Vec<u8>> {
+    if !data.starts_with(&[0x1f, 0x8b]) {
+        return Ok(data);
+    }
+    let mut out = Vec::with_capacity(data.len().saturating_mul(4).min(1 << 30));
+    let decoder = flate2::read::MultiGzDecoder::new(&data[..]);
+    let cap = limits.max_decompressed_bytes;
+    decoder.take(cap.saturating_add(1)).read_to_end(&mut out).map_err(|e| {
+        Error::invalid(Location::Byte(0), format!("broken gzip stream after {} decompressed bytes", out.len()))
+            .with_source(e)
+    })?;
+    if out.len() as u64 > cap {
+        return Err(Error::limit(Location::Byte(0), format!("gzip data expands beyond the limit of {cap} bytes")));
+    }
+    Ok(out)
+}
+
+/// Writes `mesh` to `path` (`-` for standard output) in the format its extension names, through a
+/// temporary file beside the target that is renamed into place only when complete.
+pub fn write_path(path: &Path, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
+    let name = display_name(path, "<stdout>");
+    let format = opts
+        .format
+        .or_else(|| Format::from_path(path))
+        .ok_or_else(|| Error::unsupported(Location::Unknown, "cannot tell the output format from the extension"))
+        .map_err(|e| e.in_file(&name))?;
+    if path == Path::new("-") {
+        let stdout = std::io::stdout();
+        let mut w = std::io::BufWriter::new(stdout.lock());
+        write_to(&mut w, mesh, format, opts).map_err(|e| e.in_file(&name))?;
+        return w.flush().map_err(|e| Error::io(e).in_file(&name));
+    }
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".octowrap-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| Error::io(e).in_file(&name))?;
+    {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
+        write_to(&mut w, mesh, format, opts).map_err(|e| e.in_file(&name))?;
+        w.flush().map_err(|e| Error::io(e).in_file(&name))?;
+    }
+    tmp.persist(path).map_err(|e| Error::io(e.error).in_file(&name))?;
+    Ok(())
+}
+
+/// Writes `mesh` in `format` to any writer.
+pub fn write_to(w: &mut dyn Write, mesh: &Mesh, format: Format, opts: &WriteOptions) -> Result<()> {
+    if let Err(e) = mesh.check_indices() {
+        return Err(Error::invalid(Location::Unknown, format!("cannot write a broken mesh: {e}")));
+    }
+    match format {
+        Format::Ply => ply::write(w, mesh, opts),
+        Format::Obj => obj::write(w, mesh, opts),
+        Format::Off => off::write(w, mesh, opts),
+        Format::Stl => stl::write(w, mesh, opts),
+        Format::Xyz => xyz::write(w, mesh, opts),
+        other => Err(Error::unsupported(Location::Unknown, format!("octowrap does not write {other} files"))),
+    }
+}
+
+fn display_name(path: &Path, stdio: &str) -> String {
+    if path == Path::new("-") { stdio.to_owned() } else { path.display().to_string() }
+}
+
+/// Checks a count declared by a header before allocating for it: at least `min_bytes_each` bytes
+/// per element must remain in the input, and the count must be within `max`.
+///
+/// Returns the count as `usize`.
+pub(crate) fn justify(
+    count: u64,
+    min_bytes_each: u64,
+    remaining: usize,
+    max: u64,
+    what: &str,
+    at: Location,
+) -> Result<usize> {
+    if count > max {
+        return Err(Error::limit(at, format!("{count} {what} declared, more than the limit of {max}")));
+    }
+    let need = count.saturating_mul(min_bytes_each);
+    if need > remaining as u64 {
+        return Err(Error::limit(
+            at,
+            format!("{count} {what} declared, but only {remaining} bytes remain (at least {need} needed)"),
+        ));
+    }
+    usize::try_from(count).map_err(|_| Error::limit(at, format!("{count} {what} do not fit in memory")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extension_and_gz() {
+        assert_eq!(Format::from_path(Path::new("a/b/dragon.PLY.gz")), Some(Format::Ply));
+        assert_eq!(Format::from_path(Path::new("x.laz")), Some(Format::Las));
+        assert_eq!(Format::from_path(Path::new("x.gz")), None);
+        assert_eq!(Format::from_path(Path::new("noext")), None);
+    }
+
+    #[test]
+    fn content_beats_extension() {
+        assert_eq!(Format::detect(Some(Path::new("a.obj")), b"ply\nformat ascii 1.0\n"), Some(Format::Ply));
+        assert_eq!(Format::detect(None, b"OFF\n3 1 0\n"), Some(Format::Off));
+        assert_eq!(Format::detect(None, b"# comment\nv 1 2 3\nf 1 2 3\n"), Some(Format::Obj));
+        assert_eq!(Format::detect(None, b"1 2 3\n4 5 6\n"), Some(Format::Xyz));
+        assert_eq!(Format::detect(None, b"\x00\x01garbage"), None);
+    }
+
+    #[test]
+    fn justify_refuses_counts_the_bytes_cannot_hold() {
+        let e = justify(1_000_000_000_000, 12, 1000, u64::MAX, "vertices", Location::Byte(40)).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::LimitExceeded);
+        assert!(e.to_string().contains("10000000000"), "{e}");
+        assert_eq!(justify(10, 12, 120, u64::MAX, "vertices", Location::Byte(0)).unwrap(), 10);
+        assert!(justify(10, 0, 0, 5, "faces", Location::Byte(0)).is_err());
+    }
+
+    #[test]
+    fn gzip_bomb_is_capped() {
+        use flate2::{Compression, write::GzEncoder};
+        let mut enc = GzEncoder::new(Vec::new(), Compression::fast());
+        enc.write_all(&vec![b'a'; 100_000]).unwrap();
+        let gz = enc.finish().unwrap();
+        let limits = Limits { max_decompressed_bytes: 1000, ..Limits::default() };
+        assert_eq!(decompress_if_gzip(gz.clone(), &limits).unwrap_err().kind, ErrorKind::LimitExceeded);
+        assert_eq!(decompress_if_gzip(gz, &Limits::default()).unwrap().len(), 100_000);
+        assert!(decompress_if_gzip(vec![0x1f, 0x8b, 0, 0], &Limits::default()).is_err());
+    }
+}

@@ -1,0 +1,63 @@
+//! octowrap's data model.
+//!
+//! * [`PointCloud`]: positions with optional per-point normals, colours and intensities.
+//! * [`FaceList`]: polygons of 3 or more vertices in compressed-row form (triangles, quads and
+//!   n-gons side by side).
+//! * [`Mesh`]: a point cloud (its vertices) plus a face list. A point cloud read from disk is a
+//!   mesh with no faces, so every reader returns a [`Mesh`].
+//! * [`Hierarchy`]: the multiresolution result of reconstruction, one [`Level`] per octree depth,
+//!   each face linked to its parent face and quadrant one level up ([`FaceOrigin`]).
+//!
+//! # Coordinates
+//! Positions are `f64` ([`DVec3`]) throughout. We chose `f64` over an `f64` origin with `f32`
+//! offsets because several inputs (LAS scaled integers, E57 doubles, UTM coordinates spanning
+//! tens of kilometres) need more than `f32`'s 24-bit mantissa across the whole extent, and one
+//! representation is simpler than two. Normals are `f32` ([`Vec3`]): they are unit vectors.
+//!
+//! ```
+//! use octowrap_mesh::{Mesh, PointCloud, FaceList};
+//! use octowrap_geom::DVec3;
+//!
+//! let mut mesh = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::ONE, DVec3::Y]);
+//! mesh.faces.push(&[0, 1, 2, 3]);
+//! mesh.faces.push(&[0, 2, 1]);
+//! assert_eq!(mesh.faces.len(), 2);
+//! assert_eq!(mesh.faces.face(0), &[0, 1, 2, 3]);
+//! assert_eq!(mesh.faces.size_histogram(), vec![(3, 1), (4, 1)]);
+//! assert!(mesh.check_indices().is_ok());
+//! ```
+
+mod cloud;
+mod faces;
+mod hierarchy;
+
+pub use cloud::{PointCloud, Rgb};
+pub use faces::{FaceList, IndexError};
+pub use hierarchy::{FaceOrigin, Hierarchy, HierarchyError, Level, LevelLattice, Quadrant};
+pub use octowrap_geom::{Aabb, DVec3, Vec3};
+
+/// A polygon mesh: vertices with their attributes, and faces indexing them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// The vertices and their optional attributes.
+    pub vertices: PointCloud,
+    /// The faces (possibly none: a point cloud).
+    pub faces: FaceList,
+}
+
+impl Mesh {
+    /// A mesh with the given vertex positions and no faces or attributes.
+    pub fn from_positions(positions: Vec<DVec3>) -> Self {
+        Self { vertices: PointCloud::from_positions(positions), faces: FaceList::default() }
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.vertices.len()
+    }
+
+    /// Checks that every face index is below the vertex count and every face has 3 or more vertices.
+    pub fn check_indices(&self) -> Result<(), IndexError> {
+        self.faces.check(self.vertices.len())
+    }
+}

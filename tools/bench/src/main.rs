@@ -1,0 +1,19 @@
+//! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
+//! issue (I/O, reconstruction, format, ...); `-- io` (or another section name) runs one section.
+//! Figures go to `tools/bench/RESULTS.md` with their date.
+#![allow(clippy::print_stdout, clippy::print_stderr)]
+
+mod io;
+mod util;
+
+fn main() {
+    let wanted: Vec<String> = std::env::args().skip(1).collect();
+    let run = |name: &str| wanted.is_empty() || wanted.iter().any(|w| w == name);
+    println!("# octowrap benchmark report");
+    println!();
+    println!("{}", util::machine_line());
+    println!();
+    if run("io") {
+        io::report();
+    }
+}
