@@ -1,0 +1,83 @@
+//! The `octowrap` binary as a user runs it: outputs, messages and exit codes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn octowrap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_octowrap")).args(args).stdin(Stdio::null()).output().expect("runs")
+}
+
+fn kitten() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn info_reports_counts_as_json() {
+    let out = octowrap(&["info", "--json", kitten().to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["points"], 5210);
+    assert_eq!(v["faces"], 0);
+    assert_eq!(v["format"], "xyz");
+    assert_eq!(v["attributes"][0], "normal");
+}
+
+#[test]
+fn convert_writes_a_readable_file_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("kitten.ply");
+    let out = octowrap(&["convert", kitten().to_str().unwrap(), out_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let info = octowrap(&["info", "--json", out_path.to_str().unwrap()]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["points"], 5210);
+    assert_eq!(v["format"], "ply");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn convert_to_standard_output() {
+    let out = octowrap(&["convert", kitten().to_str().unwrap(), "-", "--to", "xyz"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(text(&out.stdout).lines().count(), 5210);
+}
+
+#[test]
+fn unreadable_input_exits_2_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("broken.ply");
+    std::fs::write(&bad, "ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\nend_header\n1\n")
+        .unwrap();
+    let target = dir.path().join("out.obj");
+    let out = octowrap(&["convert", bad.to_str().unwrap(), target.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(err.contains("broken.ply"), "{err}");
+    assert!(!target.exists(), "a failed run left an output file");
+
+    let out = octowrap(&["info", dir.path().join("missing.ply").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("missing.ply"));
+}
+
+#[test]
+fn unknown_output_format_is_refused_before_reading() {
+    let out = octowrap(&["convert", kitten().to_str().unwrap(), "out.docx"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("--to"), "{}", text(&out.stderr));
+    let out = octowrap(&["convert", kitten().to_str().unwrap(), "out.laz"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("does not write"), "{}", text(&out.stderr));
+}
+
+#[test]
+fn help_teaches_with_examples() {
+    let out = octowrap(&["convert", "--help"]);
+    assert!(out.status.success());
+    let h = text(&out.stdout);
+    assert!(h.contains("Examples:") && h.contains("octowrap convert scan.laz scan.ply"), "{h}");
+}
