@@ -30,6 +30,7 @@
 mod cloud;
 mod faces;
 mod hierarchy;
+mod weld;
 
 pub use cloud::{PointCloud, Rgb};
 pub use faces::{FaceList, IndexError};

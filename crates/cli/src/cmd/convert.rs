@@ -18,6 +18,7 @@ use super::input::{InputArgs, parse_format};
 /// Examples:
 ///   octowrap convert scan.laz scan.ply
 ///   octowrap convert dragon_vrip.ply.gz dragon.obj
+///   octowrap convert --weld part.stl part.ply
 ///   gunzip -c cloud.xyz.gz | octowrap convert - --from xyz cloud.ply
 ///   octowrap convert depth.exr --camera 525,525,319.5,239.5 depth.ply
 #[derive(Debug, clap::Args)]
@@ -33,6 +34,10 @@ pub struct Args {
     /// Write text instead of binary (PLY, STL).
     #[arg(long)]
     pub ascii: bool,
+    /// Merge vertices whose positions are exactly equal before writing. STL stores every triangle
+    /// corner on its own; welding turns such a triangle soup into an indexed mesh.
+    #[arg(long)]
+    pub weld: bool,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
@@ -46,7 +51,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if !to.writable() {
         bail!("octowrap reads {to} files but does not write them; writable: ply, obj, off, stl, xyz");
     }
-    let mesh = args.input_args.read(&args.input)?;
+    let mut mesh = args.input_args.read(&args.input)?;
+    if args.weld {
+        let merged = mesh.weld_exact();
+        eprintln!("welded {merged} vertices with equal positions; {} remain", mesh.vertex_count());
+    }
     if !mesh.faces.is_empty() && !to.holds_faces() {
         eprintln!(
             "note: {to} holds points only: writing the {} vertices, dropping the {} faces",
