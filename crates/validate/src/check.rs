@@ -1,0 +1,448 @@
+//! The mesh checks, over the raw indexed face list.
+//!
+//! Edges are found by bucketing half-edges on their smaller vertex (a counting sort, O(corners)),
+//! then sorting each small bucket; fans by union-find over face corners joined across shared
+//! edges; components by union-find over vertices joined by faces. Everything is deterministic:
+//! no hash-map order reaches the report.
+
+use std::collections::HashMap;
+
+use octowrap_mesh::Mesh;
+
+use crate::report::{Code, Component, Counts, Element, Finding, MeshReport, Properties};
+use crate::{Options, dsu::Dsu};
+
+/// One face side of an edge: the corner where it starts and whether it runs from the smaller
+/// vertex to the larger.
+#[derive(Clone, Copy)]
+struct Side {
+    other: u32,
+    forward: bool,
+    /// Corner index (into the face list's index array) of the side's smaller vertex.
+    corner_lo: u32,
+    /// Corner index of the larger vertex.
+    corner_hi: u32,
+}
+
+/// Edge counts attributed to an edge's smaller vertex, summed per component later.
+#[derive(Clone, Copy, Default)]
+struct EdgeTally {
+    edges: u32,
+    boundary: u32,
+    non_manifold: u32,
+    conflicts: u32,
+}
+
+struct Collector {
+    cap: usize,
+    findings: Vec<Finding>,
+}
+
+impl Collector {
+    fn add(&mut self, code: Code, elements: impl IntoIterator<Item = Element>, count: usize, message: String) {
+        if count == 0 {
+            return;
+        }
+        let elements = elements.into_iter().take(self.cap).collect();
+        self.findings.push(Finding { code, severity: code.severity(), count, elements, message });
+    }
+}
+
+/// Runs every check on `mesh` (already welded if asked).
+pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
+    let n = mesh.vertex_count();
+    let faces = &mesh.faces;
+    let idx = faces.indices();
+    let offs = faces.offsets();
+    let mut counts = Counts::default();
+    let mut out = Collector { cap: opts.max_elements, findings: Vec::new() };
+
+    // Face-level checks; `usable[f]` marks faces that take part in the topology.
+    let mut usable = vec![true; faces.len()];
+    let (mut short, mut range, mut degen) = (Vec::new(), Vec::new(), Vec::new());
+    for (f, face) in faces.iter().enumerate() {
+        if face.len() < 3 {
+            short.push(f as u32);
+            usable[f] = false;
+        } else if face.iter().any(|&i| i as usize >= n) {
+            range.push(f as u32);
+            usable[f] = false;
+        } else if has_repeat(face) {
+            // Reported, and kept out of the topology: a face like [a, b, b] has no area, and its
+            // sides would make a spurious non-manifold edge a-b.
+            degen.push(f as u32);
+            usable[f] = false;
+        }
+    }
+    counts.short_faces = short.len();
+    counts.out_of_range_faces = range.len();
+    counts.degenerate_faces = degen.len();
+    out.add(
+        Code::FaceSize,
+        short.iter().map(|&f| Element::Face(f)),
+        short.len(),
+        format!("{} faces have fewer than 3 vertices", short.len()),
+    );
+    out.add(
+        Code::IndexRange,
+        range.iter().map(|&f| Element::Face(f)),
+        range.len(),
+        format!("{} faces refer to vertices beyond the {n} that exist", range.len()),
+    );
+    out.add(
+        Code::DegenerateFace,
+        degen.iter().map(|&f| Element::Face(f)),
+        degen.len(),
+        format!("{} faces repeat a vertex", degen.len()),
+    );
+
+    // Vertex checks.
+    let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !mesh.vertices.positions[v as usize].is_finite()).collect();
+    counts.non_finite_vertices = non_finite.len();
+    out.add(
+        Code::NonFiniteVertex,
+        non_finite.iter().map(|&v| Element::Vertex(v)),
+        non_finite.len(),
+        format!("{} vertices have NaN or infinite coordinates", non_finite.len()),
+    );
+    let mut used = vec![false; n];
+    for (f, face) in faces.iter().enumerate() {
+        if usable[f] {
+            for &i in face {
+                used[i as usize] = true;
+            }
+        }
+    }
+    let unused: Vec<u32> = (0..n as u32).filter(|&v| !used[v as usize]).collect();
+    counts.unused_vertices = unused.len();
+    out.add(
+        Code::UnusedVertex,
+        unused.iter().map(|&v| Element::Vertex(v)),
+        unused.len(),
+        format!("{} vertices are used by no face", unused.len()),
+    );
+    let dup_vertices = duplicate_vertices(mesh);
+    counts.duplicate_vertices = dup_vertices.len();
+    out.add(
+        Code::DuplicateVertex,
+        dup_vertices.iter().map(|&v| Element::Vertex(v)),
+        dup_vertices.len(),
+        format!("{} vertices repeat the exact position of an earlier vertex", dup_vertices.len()),
+    );
+
+    // Zero-area and duplicate faces.
+    let zero: Vec<u32> =
+        (0..faces.len()).filter(|&f| usable[f] && zero_area(mesh, faces.face(f))).map(|f| f as u32).collect();
+    counts.zero_area_faces = zero.len();
+    out.add(
+        Code::ZeroAreaFace,
+        zero.iter().map(|&f| Element::Face(f)),
+        zero.len(),
+        format!("{} faces have zero area", zero.len()),
+    );
+    let dup_faces = duplicate_faces(faces, &usable);
+    counts.duplicate_faces = dup_faces.len();
+    out.add(
+        Code::DuplicateFace,
+        dup_faces.iter().map(|&f| Element::Face(f)),
+        dup_faces.len(),
+        format!("{} faces repeat the vertex set of an earlier face", dup_faces.len()),
+    );
+
+    // Half-edges bucketed by their smaller vertex.
+    let mut bucket_len = vec![0u32; n + 1];
+    for (f, w) in offs.windows(2).enumerate() {
+        if !usable[f] {
+            continue;
+        }
+        let (s, e) = (w[0] as usize, w[1] as usize);
+        for c in s..e {
+            let (a, b) = (idx[c], idx[if c + 1 == e { s } else { c + 1 }]);
+            if a != b {
+                bucket_len[a.min(b) as usize + 1] += 1;
+            }
+        }
+    }
+    for v in 0..n {
+        bucket_len[v + 1] += bucket_len[v];
+    }
+    let starts = bucket_len;
+    let mut fill = starts.clone();
+    let mut sides = vec![Side { other: 0, forward: false, corner_lo: 0, corner_hi: 0 }; starts[n] as usize];
+    for (f, w) in offs.windows(2).enumerate() {
+        if !usable[f] {
+            continue;
+        }
+        let (s, e) = (w[0] as usize, w[1] as usize);
+        for c in s..e {
+            let c2 = if c + 1 == e { s } else { c + 1 };
+            let (a, b) = (idx[c], idx[c2]);
+            if a == b {
+                continue;
+            }
+            let (lo, hi, forward, clo, chi) = if a < b { (a, b, true, c, c2) } else { (b, a, false, c2, c) };
+            let slot = &mut fill[lo as usize];
+            sides[*slot as usize] = Side { other: hi, forward, corner_lo: clo as u32, corner_hi: chi as u32 };
+            *slot += 1;
+        }
+    }
+
+    // Walk edges: valence, orientation, fan unions.
+    let mut corners = Dsu::new(idx.len());
+    let mut boundary_vertices = Dsu::new(n);
+    let mut is_boundary_vertex = vec![false; n];
+    let (mut boundary, mut nm_edges, mut conflicts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut edge_count = 0usize;
+    // Per-vertex edge data for the components, keyed by the edge's smaller vertex.
+    let mut edges_at = vec![EdgeTally::default(); n];
+    for lo in 0..n {
+        let bucket = &mut sides[starts[lo] as usize..starts[lo + 1] as usize];
+        bucket.sort_unstable_by_key(|s| (s.other, !s.forward, s.corner_lo));
+        let mut i = 0;
+        while i < bucket.len() {
+            let hi = bucket[i].other;
+            let mut j = i;
+            while j < bucket.len() && bucket[j].other == hi {
+                j += 1;
+            }
+            let group = &bucket[i..j];
+            let e = Element::Edge(lo as u32, hi);
+            edge_count += 1;
+            edges_at[lo].edges += 1;
+            match group.len() {
+                1 => {
+                    boundary.push(e);
+                    edges_at[lo].boundary += 1;
+                    is_boundary_vertex[lo] = true;
+                    is_boundary_vertex[hi as usize] = true;
+                    boundary_vertices.union(lo, hi as usize);
+                }
+                2 => {}
+                _ => {
+                    nm_edges.push(e);
+                    edges_at[lo].non_manifold += 1;
+                }
+            }
+            let fwd = group.iter().filter(|s| s.forward).count();
+            let bwd = group.len() - fwd;
+            let c = usize::from(fwd > 1) + usize::from(bwd > 1);
+            if c > 0 {
+                conflicts.push(e);
+                counts.orientation_conflicts += c;
+                edges_at[lo].conflicts += c as u32;
+            }
+            for w in group.windows(2) {
+                corners.union(w[0].corner_lo as usize, w[1].corner_lo as usize);
+                corners.union(w[0].corner_hi as usize, w[1].corner_hi as usize);
+            }
+            i = j;
+        }
+    }
+    counts.boundary_edges = boundary.len();
+    counts.non_manifold_edges = nm_edges.len();
+    out.add(
+        Code::NonManifoldEdge,
+        nm_edges.iter().copied(),
+        nm_edges.len(),
+        format!("{} edges are shared by more than two faces", nm_edges.len()),
+    );
+    let conflict_edges = conflicts.len();
+    out.add(
+        Code::Orientation,
+        conflicts,
+        counts.orientation_conflicts,
+        format!(
+            "{} directed edges are used twice ({conflict_edges} edges): neighbouring faces disagree on orientation",
+            counts.orientation_conflicts
+        ),
+    );
+
+    // Fans: a used vertex is manifold when all its corners join into one fan.
+    let mut fans = vec![0u32; n];
+    for (f, w) in offs.windows(2).enumerate() {
+        if usable[f] {
+            for c in w[0] as usize..w[1] as usize {
+                if corners.find(c) == c {
+                    fans[idx[c] as usize] += 1;
+                }
+            }
+        }
+    }
+    let nm_vertices: Vec<u32> = (0..n as u32).filter(|&v| fans[v as usize] > 1).collect();
+    counts.non_manifold_vertices = nm_vertices.len();
+    out.add(
+        Code::NonManifoldVertex,
+        nm_vertices.iter().map(|&v| Element::Vertex(v)),
+        nm_vertices.len(),
+        format!("{} vertices join more than one fan of faces", nm_vertices.len()),
+    );
+
+    // Boundary loops: connected chains of boundary edges.
+    counts.boundary_loops = (0..n).filter(|&v| is_boundary_vertex[v] && boundary_vertices.find(v) == v).count();
+    let loops = counts.boundary_loops;
+    out.add(
+        Code::BoundaryEdge,
+        boundary.iter().copied(),
+        boundary.len(),
+        format!("{} boundary edges in {loops} loops (holes or borders)", boundary.len()),
+    );
+
+    // Components: vertices joined through faces.
+    let mut comp = Dsu::new(n);
+    for (f, face) in faces.iter().enumerate() {
+        if usable[f] {
+            for w in face.windows(2) {
+                comp.union(w[0] as usize, w[1] as usize);
+            }
+        }
+    }
+    let components = components(faces, &usable, &used, &mut comp, &edges_at, &fans);
+
+    let used_count = used.iter().filter(|&&u| u).count();
+    let checked_faces = usable.iter().filter(|&&u| u).count();
+    let euler = used_count as i64 - edge_count as i64 + checked_faces as i64;
+    let manifold = counts.short_faces == 0
+        && counts.out_of_range_faces == 0
+        && counts.non_manifold_edges == 0
+        && counts.non_manifold_vertices == 0;
+    let properties = Properties {
+        manifold,
+        oriented: manifold && counts.orientation_conflicts == 0,
+        closed: counts.boundary_edges == 0,
+        watertight: manifold && counts.boundary_edges == 0,
+        clean: counts.non_finite_vertices == 0
+            && counts.degenerate_faces == 0
+            && counts.zero_area_faces == 0
+            && counts.duplicate_faces == 0,
+    };
+    let mut findings = out.findings;
+    findings.sort_by_key(|f| (f.severity, Code::ALL.iter().position(|c| *c == f.code)));
+    MeshReport {
+        vertices: n,
+        faces: faces.len(),
+        edges: edge_count,
+        welded_vertices,
+        euler_characteristic: euler,
+        counts,
+        properties,
+        components,
+        findings,
+    }
+}
+
+fn has_repeat(face: &[u32]) -> bool {
+    if face.len() <= 8 {
+        face.iter().enumerate().any(|(i, a)| face[i + 1..].contains(a))
+    } else {
+        let mut s = face.to_vec();
+        s.sort_unstable();
+        s.windows(2).any(|w| w[0] == w[1])
+    }
+}
+
+/// Zero area by the vector area (Newell's method), relative to the face's squared size, so the
+/// test does not depend on the model's units.
+fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
+    let p = &mesh.vertices.positions;
+    let o = p[face[0] as usize];
+    let mut area = octowrap_geom::DVec3::ZERO;
+    let mut size2 = 0.0f64;
+    for k in 1..face.len() - 1 {
+        let a = p[face[k] as usize] - o;
+        let b = p[face[k + 1] as usize] - o;
+        area += a.cross(b);
+        size2 = size2.max(a.length_squared()).max(b.length_squared());
+    }
+    !(area.length() > size2 * 1e-12)
+}
+
+fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
+    let mut first = HashMap::with_capacity(mesh.vertex_count());
+    let mut dups = Vec::new();
+    for (i, p) in mesh.vertices.positions.iter().enumerate() {
+        if p.is_nan() {
+            continue;
+        }
+        let key = [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
+        if first.insert(key, i).is_some() {
+            dups.push(i as u32);
+        }
+    }
+    dups
+}
+
+fn duplicate_faces(faces: &octowrap_mesh::FaceList, usable: &[bool]) -> Vec<u32> {
+    let mut seen: HashMap<Vec<u32>, u32> = HashMap::new();
+    let mut dups = Vec::new();
+    for (f, face) in faces.iter().enumerate() {
+        if !usable[f] {
+            continue;
+        }
+        let mut key = face.to_vec();
+        key.sort_unstable();
+        if seen.insert(key, f as u32).is_some() {
+            dups.push(f as u32);
+        }
+    }
+    dups
+}
+
+fn components(
+    faces: &octowrap_mesh::FaceList,
+    usable: &[bool],
+    used: &[bool],
+    comp: &mut Dsu,
+    edges_at: &[EdgeTally],
+    fans: &[u32],
+) -> Vec<Component> {
+    let n = used.len();
+    // Dense component ids in order of first vertex, for determinism.
+    let mut id = vec![u32::MAX; n];
+    let mut list: Vec<Component> = Vec::new();
+    for v in 0..n {
+        if !used[v] {
+            continue;
+        }
+        let r = comp.find(v);
+        if id[r] == u32::MAX {
+            id[r] = list.len() as u32;
+            let c = Component {
+                faces: 0,
+                vertices: 0,
+                edges: 0,
+                boundary_edges: 0,
+                euler_characteristic: 0,
+                closed_manifold: true,
+                oriented: true,
+                genus: None,
+            };
+            list.push(c);
+        }
+        let c = &mut list[id[r] as usize];
+        let t = edges_at[v];
+        c.vertices += 1;
+        c.edges += t.edges as usize;
+        c.boundary_edges += t.boundary as usize;
+        c.oriented &= t.conflicts == 0;
+        c.closed_manifold &= fans[v] <= 1 && t.non_manifold == 0;
+    }
+    for (f, face) in faces.iter().enumerate() {
+        if usable[f] {
+            let r = comp.find(face[0] as usize);
+            list[id[r] as usize].faces += 1;
+        }
+    }
+    let mut out: Vec<Component> = list
+        .into_iter()
+        .map(|mut c| {
+            c.euler_characteristic = c.vertices as i64 - c.edges as i64 + c.faces as i64;
+            c.closed_manifold &= c.boundary_edges == 0;
+            if c.closed_manifold && c.oriented && c.euler_characteristic % 2 == 0 {
+                c.genus = Some((2 - c.euler_characteristic) / 2);
+            }
+            c
+        })
+        .collect();
+    out.sort_by(|a, b| b.faces.cmp(&a.faces));
+    out
+}
