@@ -1,16 +1,39 @@
-//! STL reading and writing (being written: see the module table in the crate docs).
+//! STL (stereolithography): reading ascii and binary triangle files, writing either.
+//!
+//! Follows the format as 3D Systems defined it (*StereoLithography Interface Specification*,
+//! 1989; summarised by Paul Bourke, <https://paulbourke.net/dataformats/stl/>):
+//! * binary: an 80-byte header, a little-endian `u32` triangle count, then 50 bytes per
+//!   triangle (normal, three vertices as `f32` triples, a 16-bit attribute word);
+//! * ascii: `solid name`, then `facet normal nx ny nz` / `outer loop` / three `vertex x y z` /
+//!   `endloop` / `endfacet` per triangle, closed by `endsolid name`. Several solids may follow
+//!   one another in one file; they are read into one mesh.
+//!
+//! A binary file may itself start with the word `solid`, so the size decides: a file whose size is
+//! exactly `84 + 50 × count` is binary ([`looks_binary`]); otherwise one starting with `solid` and
+//! without NUL bytes in its first 512 is read as ascii, and anything else as binary (trailing bytes
+//! after the declared triangles are ignored).
+//!
+//! # Shared vertices
+//! STL stores every triangle's corners separately. The reader merges corners at *exactly* equal
+//! positions (bit-for-bit, `-0.0` taken as `0.0`) into one vertex, numbered in the order first
+//! seen, so meshes come back indexed and the result does not depend on hashing. Nothing closer
+//! than equal is merged. Stored facet normals are ignored (they are recomputed when needed).
+//!
+//! # Writing
+//! Binary by default, ascii with `WriteOptions::ascii`. Triangles as they are; quads split along
+//! their shorter diagonal; larger polygons fan-triangulated from their first corner. Each facet
+//! normal is computed from its triangle (zero for a degenerate one). Binary STL stores `f32`
+//! positions; ascii STL writes them in `f64` shortest round-trip form. A mesh without faces cannot
+//! be written (STL holds only triangles).
 
+use std::collections::HashMap;
 use std::io::Write;
 
-use crate::{Error, Location, Mesh, ReadOptions, Result, WriteOptions};
+use octowrap_geom::DVec3;
+use octowrap_mesh::{FaceList, PointCloud};
 
-pub(crate) fn read(_data: &[u8], _opts: &ReadOptions) -> Result<Mesh> {
-    Err(Error::unsupported(Location::Unknown, "STL reading is not implemented yet"))
-}
-
-pub(crate) fn write(_w: &mut dyn Write, _mesh: &Mesh, _opts: &WriteOptions) -> Result<()> {
-    Err(Error::unsupported(Location::Unknown, "STL writing is not implemented yet"))
-}
+use crate::text::{Tokens, truncated};
+use crate::{Error, Limits, Location, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// Whether `data` is a binary STL: an 80-byte header, a triangle count, and exactly 50 bytes per
 /// triangle after it. (An ASCII STL starts with `solid`, but so do some binary ones.)
@@ -20,4 +43,393 @@ pub(crate) fn looks_binary(data: &[u8]) -> bool {
     }
     let n = u32::from_le_bytes([data[80], data[81], data[82], data[83]]) as u64;
     84 + 50 * n == data.len() as u64
+}
+
+/// Whether `data` reads as ascii STL: it starts with `solid`, is not an exact-size binary, and
+/// its first 512 bytes hold no NUL (binary headers are usually padded with them, and triangle data
+/// nearly always has some).
+fn looks_ascii(data: &[u8]) -> bool {
+    !looks_binary(data)
+        && data.trim_ascii_start().starts_with(b"solid")
+        && !data.get(..512).unwrap_or(data).contains(&0)
+}
+
+/// Merges exactly equal positions, in first-seen order.
+struct Welder {
+    index: HashMap<[u64; 3], u32>,
+    positions: Vec<DVec3>,
+    faces: FaceList,
+    max_points: u64,
+}
+
+impl Welder {
+    fn new(triangles: usize, limits: &Limits) -> Self {
+        Self {
+            index: HashMap::with_capacity(triangles / 2 + 1),
+            positions: Vec::with_capacity(triangles / 2 + 1),
+            faces: FaceList::with_capacity(triangles, triangles * 3),
+            max_points: limits.max_points,
+        }
+    }
+
+    fn vertex(&mut self, p: DVec3, at: Location) -> Result<u32> {
+        // Adding 0.0 turns -0.0 into +0.0, so the two zeros merge.
+        let key = [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()];
+        let next = self.positions.len() as u32;
+        let i = *self.index.entry(key).or_insert(next);
+        if i == next {
+            if u64::from(next) >= self.max_points {
+                return Err(Error::limit(at, format!("more than {} distinct vertices", self.max_points)));
+            }
+            self.positions.push(p);
+        }
+        Ok(i)
+    }
+
+    fn finish(self) -> Mesh {
+        Mesh { vertices: PointCloud::from_positions(self.positions), faces: self.faces }
+    }
+}
+
+/// Reads a whole STL file held in memory, ascii or binary.
+pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
+    if looks_ascii(data) { read_ascii(data, &opts.limits) } else { read_binary(data, &opts.limits) }
+}
+
+fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
+    let Some(count) = data.get(80..84) else {
+        return Err(Error::invalid(
+            Location::Byte(0),
+            format!("expected an 84-byte binary STL header (or 'solid' for ascii), found {} bytes", data.len()),
+        ));
+    };
+    let count = u32::from_le_bytes([count[0], count[1], count[2], count[3]]);
+    let body = data.get(84..).unwrap_or_default();
+    let n = justify(u64::from(count), 50, body.len(), limits.max_faces, "triangles", Location::Byte(80))?;
+    let mut weld = Welder::new(n, limits);
+    let f =
+        |b: &[u8], o: usize| f64::from(b.get(o..o + 4).map_or(0.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+    for (k, t) in body.chunks_exact(50).take(n).enumerate() {
+        let at = Location::Byte(84 + 50 * k as u64);
+        let mut tri = [0u32; 3];
+        for (c, slot) in tri.iter_mut().enumerate() {
+            let o = 12 + 12 * c;
+            *slot = weld.vertex(DVec3::new(f(t, o), f(t, o + 4), f(t, o + 8)), at)?;
+        }
+        weld.faces.push(&tri);
+    }
+    Ok(weld.finish())
+}
+
+fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
+    let mut t = Tokens::new(data, 0, 1);
+    let mut weld = Welder::new(data.len() / 256, limits);
+    let mut corners: Vec<u32> = Vec::with_capacity(3);
+    let expect = |t: &mut Tokens<'_>, word: &[u8]| -> Result<()> {
+        match t.next_token() {
+            Some(w) if w == word => Ok(()),
+            other => Err(Error::invalid(
+                t.location(),
+                format!(
+                    "expected '{}', found {}",
+                    String::from_utf8_lossy(word),
+                    other.map_or("the end of the input".to_owned(), |w| format!(
+                        "'{}'",
+                        String::from_utf8_lossy(truncated(w))
+                    ))
+                ),
+            )),
+        }
+    };
+    let mut solids = 0;
+    loop {
+        // `solid [name]`: the name runs to the end of the line.
+        match t.next_token() {
+            None if solids > 0 => break,
+            Some(b"solid") => t.skip_line(),
+            other => {
+                return Err(Error::invalid(
+                    t.location(),
+                    format!(
+                        "expected 'solid', found {}",
+                        other.map_or("the end of the input".to_owned(), |w| format!(
+                            "'{}'",
+                            String::from_utf8_lossy(truncated(w))
+                        ))
+                    ),
+                ));
+            }
+        }
+        solids += 1;
+        loop {
+            match t.next_token() {
+                Some(b"endsolid") => {
+                    t.skip_line();
+                    break;
+                }
+                Some(b"facet") => {}
+                other => {
+                    return Err(Error::invalid(
+                        t.location(),
+                        format!(
+                            "expected 'facet' or 'endsolid', found {}",
+                            other.map_or("the end of the input".to_owned(), |w| format!(
+                                "'{}'",
+                                String::from_utf8_lossy(truncated(w))
+                            ))
+                        ),
+                    ));
+                }
+            }
+            expect(&mut t, b"normal")?;
+            for c in ["normal x", "normal y", "normal z"] {
+                t.f64(c)?;
+            }
+            expect(&mut t, b"outer")?;
+            expect(&mut t, b"loop")?;
+            corners.clear();
+            loop {
+                match t.next_token() {
+                    Some(b"vertex") => {
+                        let at = t.location();
+                        let p = DVec3::new(t.f64("x")?, t.f64("y")?, t.f64("z")?);
+                        corners.push(weld.vertex(p, at)?);
+                    }
+                    Some(b"endloop") => break,
+                    other => {
+                        return Err(Error::invalid(
+                            t.location(),
+                            format!(
+                                "expected 'vertex' or 'endloop', found {}",
+                                other.map_or("the end of the input".to_owned(), |w| format!(
+                                    "'{}'",
+                                    String::from_utf8_lossy(truncated(w))
+                                ))
+                            ),
+                        ));
+                    }
+                }
+            }
+            expect(&mut t, b"endfacet")?;
+            if weld.faces.len() as u64 >= limits.max_faces {
+                return Err(Error::limit(t.location(), format!("more than {} facets", limits.max_faces)));
+            }
+            if weld.faces.corner_count().saturating_add(corners.len()) > u32::MAX as usize {
+                return Err(Error::limit(t.location(), "more than 2^32 face corners in all".to_owned()));
+            }
+            weld.faces.push(&corners);
+        }
+    }
+    Ok(weld.finish())
+}
+
+/// The triangles STL stores for `mesh`: quads split along the shorter diagonal, larger polygons
+/// fanned from their first corner.
+fn triangles(mesh: &Mesh) -> Vec<[u32; 3]> {
+    let p = &mesh.vertices.positions;
+    let pos = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
+    let mut out = Vec::with_capacity(mesh.faces.corner_count());
+    for f in mesh.faces.iter() {
+        if let &[a, b, c, d] = f {
+            if pos(a).distance_squared(pos(c)) <= pos(b).distance_squared(pos(d)) {
+                out.extend([[a, b, c], [a, c, d]]);
+            } else {
+                out.extend([[a, b, d], [b, c, d]]);
+            }
+        } else if let Some((&first, rest)) = f.split_first() {
+            out.extend(rest.windows(2).map(|w| [first, w[0], w[1]]));
+        }
+    }
+    out
+}
+
+/// Writes `mesh` as STL, binary or (with `opts.ascii`) ascii.
+pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
+    if mesh.faces.is_empty() {
+        return Err(Error::unsupported(
+            Location::Unknown,
+            "STL holds triangles only, and this mesh has no faces (write a point cloud as PLY or XYZ)",
+        ));
+    }
+    let tris = triangles(mesh);
+    let p = &mesh.vertices.positions;
+    let pos = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
+    let normal = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(pos);
+        (b - a).cross(c - a).normalize_or_zero()
+    };
+    if opts.ascii {
+        use std::fmt::Write as _;
+        let mut s = String::with_capacity(1 << 16);
+        s.push_str("solid octowrap\n");
+        for t in &tris {
+            let n = normal(t).as_vec3();
+            // Writing to a String cannot fail.
+            let _ = writeln!(s, "facet normal {} {} {}\nouter loop", n.x, n.y, n.z);
+            for &i in t {
+                let v = pos(i);
+                let _ = writeln!(s, "vertex {} {} {}", v.x, v.y, v.z);
+            }
+            s.push_str("endloop\nendfacet\n");
+            if s.len() > 60_000 {
+                w.write_all(s.as_bytes()).map_err(Error::io)?;
+                s.clear();
+            }
+        }
+        s.push_str("endsolid octowrap\n");
+        return w.write_all(s.as_bytes()).map_err(Error::io);
+    }
+    let count = u32::try_from(tris.len())
+        .map_err(|_| Error::unsupported(Location::Unknown, "binary STL holds at most 2^32-1 triangles"))?;
+    let mut b = Vec::with_capacity(1 << 20);
+    let mut header = *b"binary STL written by octowrap";
+    header.make_ascii_uppercase();
+    b.extend_from_slice(&header);
+    b.resize(80, b' ');
+    b.extend_from_slice(&count.to_le_bytes());
+    for t in &tris {
+        let n = normal(t).as_vec3();
+        for c in n.to_array() {
+            b.extend_from_slice(&c.to_le_bytes());
+        }
+        for &i in t {
+            for c in pos(i).to_array() {
+                b.extend_from_slice(&(c as f32).to_le_bytes());
+            }
+        }
+        b.extend_from_slice(&[0, 0]);
+        if b.len() >= 1 << 20 {
+            w.write_all(&b).map_err(Error::io)?;
+            b.clear();
+        }
+    }
+    w.write_all(&b).map_err(Error::io)
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::ErrorKind;
+    use crate::text::testing::{arb_mesh, every_prefix};
+
+    fn rd(data: &[u8]) -> Result<Mesh> {
+        read(data, &ReadOptions::default())
+    }
+
+    const ASCII: &[u8] = b"solid two triangles\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n\
+        vertex 1 1 -0\n  endloop\n endfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 1 0\n\
+        vertex 0 1 0\nendloop\nendfacet\nendsolid two triangles\r\nsolid second\nfacet normal 0 0 0\nouter loop\n\
+        vertex 0 0 0\nvertex 0 1 0\nvertex 0 0 5\nendloop\nendfacet\nendsolid\n";
+
+    #[test]
+    fn ascii_several_solids_welded() {
+        let m = rd(ASCII).unwrap();
+        assert_eq!(m.vertex_count(), 5, "-0 and 0 merge; repeated corners merge");
+        assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[0, 2, 3], &[0, 3, 4]]);
+        assert_eq!(m.vertices.positions[4], DVec3::new(0.0, 0.0, 5.0));
+    }
+
+    fn binary(tris: &[[[f32; 3]; 3]], header: &[u8]) -> Vec<u8> {
+        let mut b = header.to_vec();
+        b.resize(80, 0);
+        b.extend((tris.len() as u32).to_le_bytes());
+        for t in tris {
+            b.extend([0u8; 12]);
+            for v in t {
+                for c in v {
+                    b.extend(c.to_le_bytes());
+                }
+            }
+            b.extend([0, 0]);
+        }
+        b
+    }
+
+    #[test]
+    fn binary_even_when_it_starts_with_solid() {
+        let tris =
+            [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.5]]];
+        for header in [&b"solid but binary"[..], b"\0\0"] {
+            let data = binary(&tris, header);
+            assert!(looks_binary(&data));
+            let m = rd(&data).unwrap();
+            assert_eq!(m.vertex_count(), 4);
+            assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[1, 2, 3]]);
+            every_prefix(&data, read);
+        }
+    }
+
+    #[test]
+    fn bad_input_says_where() {
+        let mut data = binary(&[[[0.0; 3]; 3]], b"x");
+        data[80] = 0xff;
+        let e = rd(&data).unwrap_err();
+        assert_eq!((e.kind, e.location), (ErrorKind::LimitExceeded, Location::Byte(80)), "{e}");
+        let e = rd(b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 zero\n").unwrap_err();
+        assert_eq!(e.location, Location::Line(4), "{e}");
+        assert!(e.message.contains("'zero'"), "{e}");
+        let e = rd(b"solid x\nfacet normal 0 0 1\nouter lop\n").unwrap_err();
+        assert!(e.message.contains("expected 'loop', found 'lop'"), "{e}");
+        assert!(rd(b"tiny").unwrap_err().message.contains("84-byte"));
+    }
+
+    #[test]
+    fn every_prefix_fails_cleanly() {
+        // Only prefixes that end inside an `endsolid` line parse (as fewer solids).
+        let parsed = every_prefix(ASCII, read);
+        assert!(parsed <= 30, "{parsed}");
+    }
+
+    #[test]
+    fn writer_splits_quads_along_the_shorter_diagonal_and_refuses_point_clouds() {
+        let mut m = Mesh::from_positions(vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(4.0, 1.0, 0.0),
+            DVec3::new(3.0, 3.0, 0.0),
+        ]);
+        m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+        assert_eq!(triangles(&m), vec![[0, 1, 3], [1, 2, 3]]);
+        let mut out = Vec::new();
+        write(&mut out, &m, &WriteOptions::default()).unwrap();
+        assert_eq!(out.len(), 84 + 100);
+        assert!(!out.starts_with(b"solid"));
+        let back = rd(&out).unwrap();
+        assert_eq!(back.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[1, 3, 2]]);
+        assert_eq!(f32::from_le_bytes([out[84 + 8], out[85 + 8], out[86 + 8], out[87 + 8]]), 1.0, "facet normal +z");
+        let e = write(&mut Vec::new(), &Mesh::from_positions(vec![DVec3::ZERO]), &WriteOptions::default()).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Unsupported);
+    }
+
+    /// The triangles of `m` as position triples, for comparing meshes up to vertex numbering.
+    fn soup(m: &Mesh) -> Vec<[DVec3; 3]> {
+        triangles(m).iter().map(|t| t.map(|i| m.vertices.positions[i as usize])).collect()
+    }
+
+    proptest! {
+        #[test]
+        fn random_bytes_never_panic(data in prop::collection::vec(any::<u8>(), 0..400)) {
+            let _ = rd(&data);
+            let mut d = b"solid ".to_vec();
+            d.extend(&data);
+            let _ = rd(&d);
+        }
+
+        #[test]
+        fn random_meshes_round_trip(m in arb_mesh(false, true), ascii in any::<bool>()) {
+            prop_assume!(!m.faces.is_empty());
+            let mut w = WriteOptions::default();
+            w.ascii = ascii;
+            let mut out = Vec::new();
+            write(&mut out, &m, &w).unwrap();
+            let back = rd(&out).unwrap();
+            let mut want = soup(&m);
+            if !ascii {
+                want = want.iter().map(|t| t.map(|p| p.as_vec3().as_dvec3())).collect();
+            }
+            prop_assert_eq!(soup(&back), want);
+        }
+    }
 }
