@@ -1,0 +1,532 @@
+//! Surface reconstruction from unorganized point clouds into a multiresolution quad hierarchy,
+//! after Keller, Hering-Bertram & Hagen, *Surface Reconstruction from Unorganized 3D Point
+//! Clouds* (sections 3.1-4.2).
+//!
+//! One entry point, [`reconstruct`] (or [`reconstruct_with`] for timings and progress), turns
+//! points into a [`Hierarchy`]: level 0 is the bounding cube's six faces, and every level `j`
+//! is a two-manifold quad mesh (possibly with boundary where the data has holes) wrapped around
+//! the occupied voxels of octree level `j`, its vertices mapped onto tangent planes of the
+//! points, every face linked to its parent face and quadrant one level up or marked created.
+//!
+//! ```
+//! use octowrap_recon::{reconstruct, ReconOptions, MaxLevel};
+//! use octowrap_geom::DVec3;
+//!
+//! // A sampled sphere.
+//! let pts: Vec<DVec3> = (0..4000)
+//!     .map(|i| {
+//!         let z = 1.0 - 2.0 * (f64::from(i) + 0.5) / 4000.0;
+//!         let phi = f64::from(i) * 2.399_963;
+//!         let r = (1.0 - z * z).sqrt();
+//!         DVec3::new(r * phi.cos(), r * phi.sin(), z)
+//!     })
+//!     .collect();
+//! let mut opts = ReconOptions::default();
+//! opts.max_level = MaxLevel::Level(4);
+//! let h = reconstruct(&pts, &opts).unwrap();
+//! assert_eq!(h.levels.len(), 5);
+//! assert!(h.check_links().is_ok());
+//! assert!(h.levels.iter().all(|l| l.mesh.faces.all_quads()));
+//! ```
+//!
+//! # The pipeline, one module per stage
+//! | stage | module | paper |
+//! |---|---|---|
+//! | hierarchical space partitioning | `octree` | §3.2 |
+//! | which slots may hold faces (oriented sheets) | `sheet` | §3.4-3.5 stop rules |
+//! | regular refinement `R` | `regular` | §3.4 |
+//! | irregular refinement `I` (closure, diagonal case) | `irregular` | §3.5 |
+//! | vertex extraction, vertex and edge splits | `extract` | §3.5, Fig. 5 |
+//! | vertex mapping | `mapping` | §3.6 |
+//! | relaxation | `relax` | §3.6.1 |
+//! | density limit, subdivision beyond it | `sparse` | §4.2 |
+//!
+//! # Readings of the paper
+//! Where the paper is vague we took these readings (each module's docs give the details):
+//!
+//! * **Faces are slots (§3.3).** A face is a pair (voxel, side) with the side's neighbour empty,
+//!   at most one per slot, oriented outwards. A level's mesh is a set of slots; two faces are
+//!   linked exactly when each is the other's partner across their common lattice edge (convex,
+//!   flat, concave or diagonal, §3.5 cases 1-3), so the rules only decide which slots exist.
+//! * **Regular refinement (§3.4)**: subface to `c_out` if occupied, else `c_in`; "not onto a
+//!   subvoxel with a face on the opposite side" is read order-independently as "`c_out` wins".
+//! * **Stop rules (§3.5 rules 1 and 2)** are replaced by one order-independent predicate on slots,
+//!   the oriented-sheet mask of `sheet`: a voxel whose neighbourhood is a flat single sheet of
+//!   points, oriented outwards by the coarser level's faces, refuses faces looking into the object.
+//!   Read literally, the paper's rules depend on visiting order, and in a prototype they both let
+//!   holes close and refused to wrap one-voxel protrusions.
+//! * **The diagonal case (§3.5 case 3b)** is decided per voxel pair from one plane fitted to both
+//!   voxels' points (pass unless the joint RMS residual exceeds 0.2 voxel with 4+ points each),
+//!   not from the two voxels' separate normals, which broke sampled spheres.
+//! * **Vertex and edge splits (§3.5, Fig. 5)** happen by construction: vertices are the fans of
+//!   linked faces around each lattice point, so they are manifold; a remaining pinched diagonal
+//!   edge has its decision flipped (the edge split).
+//! * **Vertex mapping (§3.6)**: `W` = the voxels of the vertex's fan; the `2|p - v| < l` filter;
+//!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped.
+//! * **Relaxation (§3.6.1)**: Laplacian to the one-ring centroid, then re-projection on the
+//!   vertex's own plane. Measured on the bunny, it changes the points-to-mesh error by a few
+//!   percent either way (see `tools/bench/RESULTS.md`); default [`ReconOptions::relax_passes`].
+//! * **Sparse data (§4.2)**: a level is trusted while the median points per occupied voxel is at
+//!   least 8; [`MaxLevel::Auto`] stops there; deeper levels asked for are subdivided and mapped.
+//!
+//! # Coordinates and determinism
+//! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
+//! `f64` relative to each vertex); output positions are world `f64`. Every parallel stage either
+//! maps items independently or computes a set whose content does not depend on order, and every
+//! output array is sorted (faces in Morton order of their slots, vertices by first use), so the
+//! output is the same whatever the number of threads.
+#![deny(missing_docs)]
+
+mod extract;
+mod irregular;
+mod keymap;
+mod lattice;
+mod mapping;
+mod octree;
+mod regular;
+mod relax;
+mod sheet;
+mod sparse;
+
+use std::time::{Duration, Instant};
+
+use octowrap_geom::{DVec3, morton};
+use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, PointCloud};
+
+use crate::irregular::Decisions;
+use crate::keymap::KeyMap;
+use crate::lattice::{unslot, MAX_LEVEL};
+use crate::octree::{Octree, voxel_size};
+
+/// The deepest level supported (slot keys pack a level-`j` Morton code in `3 j + 3` bits).
+pub const DEEPEST_LEVEL: u32 = MAX_LEVEL;
+
+/// How deep to reconstruct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaxLevel {
+    /// Stop at the deepest level the sampling density supports (§4.2): the last level whose median
+    /// number of points per occupied voxel is at least [`ReconOptions::min_median_points`]
+    /// (at least level 1, at most [`AUTO_CAP`]).
+    Auto,
+    /// Build exactly this many levels below the root (`1..=`[`DEEPEST_LEVEL`]); levels beyond the
+    /// density limit follow [`ReconOptions::sparse`].
+    Level(u32),
+}
+
+/// The deepest level [`MaxLevel::Auto`] goes to.
+pub const AUTO_CAP: u32 = 16;
+
+/// What to do with levels deeper than the sampling density supports (§4.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SparseMode {
+    /// Fix the topology at the last trusted level; deeper levels split every quad into four and
+    /// map the vertices again (the paper's advice). Faces grow exactly 4x per level.
+    Subdivide,
+    /// Wrap the voxels anyway: the mesh follows the data and fragments where it is sparse
+    /// (the paper's Fig. 8(b)).
+    Wrap,
+}
+
+/// Reconstruction options. Construct with [`ReconOptions::default`] and set fields.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct ReconOptions {
+    /// Finest level. Default [`MaxLevel::Auto`].
+    pub max_level: MaxLevel,
+    /// Relaxation passes per level (§3.6.1). Default 0: on the bunny and the dragon relaxation
+    /// changed the points-to-mesh error by a few percent only, and made it worse at coarse
+    /// levels; the paper uses 4, which gives smoother meshes.
+    pub relax_passes: u32,
+    /// Padding of the root cube, as a fraction of the points' longest extent on each side.
+    /// Default 0.01.
+    pub padding: f64,
+    /// A level's topology is trusted while the median points per occupied voxel is at least this.
+    /// Default 8.
+    pub min_median_points: f64,
+    /// Levels beyond the density limit. Default [`SparseMode::Subdivide`].
+    pub sparse: SparseMode,
+}
+
+impl Default for ReconOptions {
+    fn default() -> Self {
+        Self { max_level: MaxLevel::Auto, relax_passes: 0, padding: 0.01, min_median_points: 8.0, sparse: SparseMode::Subdivide }
+    }
+}
+
+/// Why reconstruction could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReconError {
+    /// No points.
+    #[error("the point cloud is empty")]
+    Empty,
+    /// Some coordinates are NaN or infinite.
+    #[error("{count} of {total} points have NaN or infinite coordinates; remove them first")]
+    NonFinite {
+        /// Points with a non-finite coordinate.
+        count: usize,
+        /// All points.
+        total: usize,
+    },
+    /// Too few distinct positions to span a surface.
+    #[error("only {distinct} distinct point position(s); reconstruction needs at least {needed}")]
+    TooFewDistinct {
+        /// Distinct positions found (at 2^-21 of the bounding cube).
+        distinct: usize,
+        /// Distinct positions needed.
+        needed: usize,
+    },
+    /// More points than 32-bit indices can hold.
+    #[error("{count} points; at most {max} are supported")]
+    TooManyPoints {
+        /// Points given.
+        count: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// The requested level is 0 or too deep.
+    #[error("level {requested} is outside the supported range 1..={max}")]
+    BadLevel {
+        /// The level asked for.
+        requested: u32,
+        /// The deepest supported level.
+        max: u32,
+    },
+}
+
+/// A stage of the pipeline, for progress reports and timings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Octree partitioning (§3.2).
+    Partitioning,
+    /// Oriented-sheet mask and regular refinement (§3.4).
+    Regular,
+    /// Irregular refinement, vertex extraction, splits (§3.5); subdivision on sparse levels.
+    Irregular,
+    /// Vertex mapping (§3.6).
+    Mapping,
+    /// Relaxation (§3.6.1).
+    Relaxation,
+}
+
+/// A progress report: `stage` of `level` is starting; `levels` is the finest level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// The level being built.
+    pub level: u32,
+    /// The finest level that will be built (known after partitioning; until then the finest
+    /// partitioned so far).
+    pub levels: u32,
+    /// The stage starting.
+    pub stage: Stage,
+}
+
+/// Wall time of each stage of one level (the columns of the paper's Table 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimings {
+    /// Octree partitioning of this level (the deepest level also carries the sort and moments).
+    pub partitioning: Duration,
+    /// Mask and regular refinement.
+    pub regular: Duration,
+    /// Closure, extraction and splits (or subdivision).
+    pub irregular: Duration,
+    /// Vertex mapping.
+    pub mapping: Duration,
+    /// Relaxation.
+    pub relaxation: Duration,
+}
+
+impl StageTimings {
+    /// Sum of all stages.
+    pub fn total(&self) -> Duration {
+        self.partitioning + self.regular + self.irregular + self.mapping + self.relaxation
+    }
+}
+
+/// How a level was made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LevelKind {
+    /// The six faces of the root cube.
+    Root,
+    /// Wrapped around the occupied voxels (§3.4-3.5).
+    Wrapped,
+    /// Subdivided from the level above (§4.2).
+    Subdivided,
+}
+
+/// Figures about one level.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelReport {
+    /// The level.
+    pub level: u32,
+    /// How it was made.
+    pub kind: LevelKind,
+    /// Occupied voxels.
+    pub voxels: usize,
+    /// Median points per occupied voxel.
+    pub median_points: f64,
+    /// Faces.
+    pub faces: usize,
+    /// Vertices.
+    pub vertices: usize,
+    /// Faces created by the closure (no parent).
+    pub created: usize,
+    /// Voxels whose oriented sheet constrained faces.
+    pub oriented_voxels: usize,
+    /// Diagonal decisions flipped to split pinched edges.
+    pub flips: usize,
+    /// Faces dropped on edges that flipping could not split.
+    pub dropped: usize,
+    /// Stage timings.
+    pub timings: StageTimings,
+}
+
+/// A reconstruction with its report.
+#[derive(Clone, Debug)]
+pub struct Reconstruction {
+    /// The levels.
+    pub hierarchy: Hierarchy,
+    /// Per-level figures and timings, level 0 first.
+    pub levels: Vec<LevelReport>,
+    /// The deepest level whose topology the density supports.
+    pub trusted_level: u32,
+}
+
+/// Reconstructs `points` (world coordinates) into a hierarchy.
+///
+/// Guarantees, for every level `j >= 1`: all faces are quads oriented outwards (counter-clockwise
+/// seen from outside); every edge has one or two faces, and two faces on an edge run it in opposite
+/// directions; every vertex has a single fan of faces; every face names its parent face and quadrant
+/// in level `j - 1` or is [`FaceOrigin::Created`]; `lattice` names each face's voxel and side and each
+/// vertex's lattice corner at level `j`; [`Hierarchy::cube`] is the root cube. Level 0 is the root
+/// cube's six faces. The output depends only on `points` and `opts`, not on the thread count.
+///
+/// Errors on empty input, non-finite coordinates, fewer than 3 distinct positions, more than
+/// `u32::MAX - 1` points, or a requested level outside `1..=`[`DEEPEST_LEVEL`].
+pub fn reconstruct(points: &[DVec3], opts: &ReconOptions) -> Result<Hierarchy, ReconError> {
+    reconstruct_with(points, opts, &mut |_| {}).map(|r| r.hierarchy)
+}
+
+/// Like [`reconstruct`], reporting progress through `progress` (called on the calling thread at
+/// the start of every stage of every level) and returning per-level figures and timings.
+pub fn reconstruct_with(
+    points: &[DVec3],
+    opts: &ReconOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Reconstruction, ReconError> {
+    if points.is_empty() {
+        return Err(ReconError::Empty);
+    }
+    let bad = points.iter().filter(|p| !p.is_finite()).count();
+    if bad > 0 {
+        return Err(ReconError::NonFinite { count: bad, total: points.len() });
+    }
+    let max_points = u32::MAX as usize - 1;
+    if points.len() > max_points {
+        return Err(ReconError::TooManyPoints { count: points.len(), max: max_points });
+    }
+    if let MaxLevel::Level(n) = opts.max_level {
+        if n == 0 || n > MAX_LEVEL {
+            return Err(ReconError::BadLevel { requested: n, max: MAX_LEVEL });
+        }
+    }
+    let padding = if opts.padding.is_finite() { opts.padding.clamp(0.0, 1.0) } else { 0.01 };
+
+    // §3.2: partitioning.
+    let t = Instant::now();
+    progress(Progress { level: 0, levels: 0, stage: Stage::Partitioning });
+    let mut tree = Octree::new(points, padding);
+    if tree.distinct < 3 {
+        return Err(ReconError::TooFewDistinct { distinct: tree.distinct, needed: 3 });
+    }
+    let mut part_times = vec![t.elapsed()];
+    let mut trusted = 0;
+    let finest = loop {
+        let j = tree.depth();
+        let enough = tree.levels[j as usize].median_count() >= opts.min_median_points;
+        if enough || j <= 1 {
+            trusted = j.max(1);
+        }
+        match opts.max_level {
+            MaxLevel::Auto if (!enough && j >= 1) || j >= AUTO_CAP => break trusted.min(j).max(1),
+            MaxLevel::Level(n) if j >= n => break n,
+            _ => {}
+        }
+        let t = Instant::now();
+        progress(Progress { level: j + 1, levels: j + 1, stage: Stage::Partitioning });
+        tree.push_level();
+        part_times.push(t.elapsed());
+    };
+    // Auto may have partitioned one level past the trusted one: drop it.
+    while tree.depth() > finest {
+        tree.levels.pop();
+        part_times.pop();
+    }
+    if opts.sparse == SparseMode::Wrap {
+        trusted = finest;
+    }
+    let trusted = trusted.min(finest);
+    let t = Instant::now();
+    tree.finish();
+    *part_times.last_mut().expect("level 0 exists") += t.elapsed();
+
+    let mut levels: Vec<Level> = Vec::new();
+    let mut reports: Vec<LevelReport> = Vec::new();
+
+    // Level 0: the root cube.
+    let root_slots: Vec<u64> = (0..6u8).map(|d| lattice::slot(0, d)).collect();
+    let (ex, _) = extract::extract(&root_slots, &Decisions::new(&tree.levels[0]));
+    let root_pos: Vec<DVec3> = ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect();
+    let mut prev = LevelState {
+        slots: root_slots,
+        quads: ex.quads,
+        corners: ex.corners,
+        positions: root_pos,
+        origins: vec![FaceOrigin::Created; 6],
+    };
+    reports.push(LevelReport {
+        level: 0,
+        kind: LevelKind::Root,
+        voxels: 1,
+        median_points: points.len() as f64,
+        faces: 6,
+        vertices: 8,
+        created: 6,
+        oriented_voxels: 0,
+        flips: 0,
+        dropped: 0,
+        timings: StageTimings { partitioning: part_times[0], ..StageTimings::default() },
+    });
+    levels.push(prev.to_level(&tree));
+
+    for j in 1..=finest {
+        let cells = &tree.levels[j as usize];
+        let coarse = &tree.levels[j as usize - 1];
+        let mut rep = LevelReport {
+            level: j,
+            kind: LevelKind::Wrapped,
+            voxels: cells.len(),
+            median_points: cells.median_count(),
+            faces: 0,
+            vertices: 0,
+            created: 0,
+            oriented_voxels: 0,
+            flips: 0,
+            dropped: 0,
+            timings: StageTimings { partitioning: part_times[j as usize], ..StageTimings::default() },
+        };
+        let mut stage = |s| progress(Progress { level: j, levels: finest, stage: s });
+        let next = if j <= trusted {
+            // §3.4: mask and regular refinement.
+            stage(Stage::Regular);
+            let t = Instant::now();
+            let prev_index = KeyMap::from_keys(&prev.slots);
+            let mask = sheet::build(&tree, cells, coarse, &prev_index);
+            rep.oriented_voxels = mask.signed_count();
+            let initial = regular::refine(&prev.slots, &prev_index, cells, &mask);
+            rep.timings.regular = t.elapsed();
+            // §3.5: closure, extraction, splits.
+            stage(Stage::Irregular);
+            let t = Instant::now();
+            let mut dec = Decisions::new(cells);
+            let (mut slots, mut origins, created) = irregular::close(initial, cells, &mask, &dec);
+            rep.created = created;
+            let mut tried = std::collections::BTreeSet::new();
+            let ex = loop {
+                let (ex, bad) = extract::extract(&slots, &dec);
+                if bad.is_empty() {
+                    break ex;
+                }
+                let mut drop = vec![false; slots.len()];
+                for b in bad {
+                    match b.diagonal {
+                        Some(p) if tried.insert(p) => {
+                            dec.flips.insert(p);
+                            rep.flips += 1;
+                        }
+                        _ => {
+                            for f in b.faces {
+                                drop[f as usize] = true;
+                            }
+                        }
+                    }
+                }
+                let before = slots.len();
+                let mut keep = drop.iter().map(|d| !d);
+                slots.retain(|_| keep.next().unwrap_or(true));
+                let mut keep = drop.iter().map(|d| !d);
+                origins.retain(|_| keep.next().unwrap_or(true));
+                rep.dropped += before - slots.len();
+            };
+            rep.timings.irregular = t.elapsed();
+            let h = voxel_size(j);
+            let positions =
+                ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2])) * h).collect();
+            LevelState { slots, quads: ex.quads, corners: ex.corners, positions, origins }
+        } else {
+            rep.kind = LevelKind::Subdivided;
+            stage(Stage::Irregular);
+            let t = Instant::now();
+            let s = sparse::subdivide(&prev.quads, &prev.corners, &prev.slots, &prev.positions);
+            rep.timings.irregular = t.elapsed();
+            LevelState { slots: s.slots, quads: s.quads, corners: s.corners, positions: s.positions, origins: s.origins }
+        };
+        let mut next = next;
+        // §3.6: vertex mapping.
+        stage(Stage::Mapping);
+        let t = Instant::now();
+        let mapped = if rep.kind == LevelKind::Wrapped {
+            let face_cells: Vec<u32> = next
+                .slots
+                .iter()
+                .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
+                .collect();
+            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &next.positions)
+        } else {
+            mapping::map_free(&tree, cells, &next.positions)
+        };
+        next.positions = mapped.positions;
+        rep.timings.mapping = t.elapsed();
+        // §3.6.1: relaxation.
+        stage(Stage::Relaxation);
+        let t = Instant::now();
+        relax::relax(&mut next.positions, &mapped.planes, &next.quads, opts.relax_passes);
+        rep.timings.relaxation = t.elapsed();
+        rep.faces = next.quads.len();
+        rep.vertices = next.corners.len();
+        levels.push(next.to_level(&tree));
+        reports.push(rep);
+        prev = next;
+    }
+    let hierarchy = Hierarchy { levels, cube: Some(tree.frame.cube()) };
+    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: trusted })
+}
+
+/// One level while it is being built (local coordinates).
+struct LevelState {
+    slots: Vec<u64>,
+    quads: Vec<[u32; 4]>,
+    corners: Vec<[u32; 3]>,
+    positions: Vec<DVec3>,
+    origins: Vec<FaceOrigin>,
+}
+
+impl LevelState {
+    fn to_level(&self, tree: &Octree) -> Level {
+        let world: Vec<DVec3> = self.positions.iter().map(|&p| tree.frame.to_world(p)).collect();
+        let mesh = Mesh { vertices: PointCloud::from_positions(world), faces: FaceList::from_quads(&self.quads) };
+        let face_slots = self
+            .slots
+            .iter()
+            .map(|&s| {
+                let (code, side) = unslot(s);
+                (morton::decode(code), side)
+            })
+            .collect();
+        Level {
+            mesh,
+            origins: self.origins.clone(),
+            lattice: Some(LevelLattice { face_slots, vertex_corners: self.corners.clone() }),
+        }
+    }
+}

@@ -1,0 +1,167 @@
+//! Vertex mapping (Keller et al., §3.6): every vertex moves onto the plane fitted to the points
+//! around it.
+//!
+//! Reading: for a vertex of a wrapped level, `W` is the set of voxels carrying the faces of its
+//! fan (so the two sides of a thin part, which are different vertices on the same lattice corner,
+//! see different points). `P` is their points within half a voxel edge of the vertex
+//! (`2 |p - v| < l`, the paper's filter). With fewer than 3 points, `W` grows by every voxel
+//! adjacent to it (sharing a vertex, edge or face, the paper's `W'`), first with the radius
+//! doubled to `l`, then without the filter. The plane is the PCA fit (centroid `c`, normal of the
+//! smallest covariance eigenvalue) and the vertex moves to `v - ((v - c) . n) n` (equation (1)).
+//! A vertex with fewer than 3 points even then keeps its place. Moments are accumulated relative
+//! to the vertex, in `f64`, so the fit does not lose precision at fine levels.
+//!
+//! Vertices of subdivided levels ([`crate::sparse`]) have no fan voxels of their own; they use the
+//! points within one edge length, then two, of their position.
+
+use octowrap_geom::{DVec3, Moments, morton};
+use rayon::prelude::*;
+
+use crate::lattice::offset;
+use crate::octree::{BLOCK, Cells, Octree};
+
+/// A fitted tangent plane, in local coordinates.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TangentPlane {
+    /// Centroid of the fitted points.
+    pub point: DVec3,
+    /// Unit normal.
+    pub normal: DVec3,
+}
+
+impl TangentPlane {
+    /// Orthogonal projection onto the plane (equation (1)).
+    #[inline]
+    pub(crate) fn project(&self, v: DVec3) -> DVec3 {
+        v - self.normal * (v - self.point).dot(self.normal)
+    }
+}
+
+/// Positions and planes of a mapped level.
+#[derive(Debug, Default)]
+pub(crate) struct Mapped {
+    /// Local positions.
+    pub positions: Vec<DVec3>,
+    /// The plane each vertex was projected on, if it had enough points.
+    pub planes: Vec<Option<TangentPlane>>,
+}
+
+/// Sums the points of `cell` within `radius` of `x`, relative to `x`.
+#[inline]
+fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &mut Moments) {
+    let r2 = radius * radius;
+    for p in &tree.points[cells.range(cell)] {
+        let d = p.as_dvec3() - x;
+        if d.length_squared() < r2 {
+            m.add(d);
+        }
+    }
+}
+
+fn fit(m: &Moments, x: DVec3) -> Option<TangentPlane> {
+    let p = m.fit_plane()?;
+    Some(TangentPlane { point: p.point + x, normal: p.normal })
+}
+
+/// Maps the vertices of a wrapped level. `face_cells[f]` is the voxel (index into `cells`) of
+/// face `f`; `start` the vertices' initial positions.
+pub(crate) fn map_wrapped(
+    tree: &Octree,
+    cells: &Cells,
+    quads: &[[u32; 4]],
+    face_cells: &[u32],
+    start: &[DVec3],
+) -> Mapped {
+    // Vertex -> voxels of its fan, as a sorted list of pairs.
+    let mut pairs: Vec<(u32, u32)> =
+        quads.iter().zip(face_cells).flat_map(|(q, &c)| q.iter().map(move |&v| (v, c))).collect();
+    pairs.par_sort_unstable();
+    pairs.dedup();
+    let mut first = vec![0u32; start.len() + 1];
+    for &(v, _) in &pairs {
+        first[v as usize + 1] += 1;
+    }
+    for i in 0..start.len() {
+        first[i + 1] += first[i];
+    }
+    let l = cells.voxel();
+    let level = cells.level;
+    let (positions, planes): (Vec<DVec3>, Vec<Option<TangentPlane>>) = (0..start.len())
+        .into_par_iter()
+        .map(|v| {
+            let x = start[v];
+            let w: Vec<usize> =
+                pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
+            let mut m = Moments::default();
+            for &c in &w {
+                gather(tree, cells, c, x, 0.5 * l, &mut m);
+            }
+            if m.count < 3.0 {
+                let mut grown: Vec<usize> = w
+                    .iter()
+                    .flat_map(|&c| {
+                        let key = cells.keys[c];
+                        BLOCK.iter().filter_map(move |&o| offset(key, o, level).and_then(|k| cells.find(k)))
+                    })
+                    .collect();
+                grown.sort_unstable();
+                grown.dedup();
+                for radius in [l, f64::INFINITY] {
+                    m = Moments::default();
+                    for &c in &grown {
+                        gather(tree, cells, c, x, radius, &mut m);
+                    }
+                    if m.count >= 3.0 {
+                        break;
+                    }
+                }
+            }
+            match fit(&m, x) {
+                Some(p) => (p.project(x), Some(p)),
+                None => (x, None),
+            }
+        })
+        .unzip();
+    Mapped { positions, planes }
+}
+
+/// Maps free vertices (of a subdivided level) onto the points within one, then two, voxel edges
+/// of `cells`' level.
+pub(crate) fn map_free(tree: &Octree, cells: &Cells, start: &[DVec3]) -> Mapped {
+    let l = cells.voxel();
+    let level = cells.level;
+    let n = 1i64 << level;
+    let (positions, planes): (Vec<DVec3>, Vec<Option<TangentPlane>>) = start
+        .par_iter()
+        .map(|&x| {
+            let base = (x / l).floor();
+            let mut m = Moments::default();
+            for reach in [1i64, 2] {
+                m = Moments::default();
+                let radius = reach as f64 * l;
+                for dz in -reach..=reach {
+                    for dy in -reach..=reach {
+                        for dx in -reach..=reach {
+                            let c = [base.x as i64 + dx, base.y as i64 + dy, base.z as i64 + dz];
+                            if c.iter().any(|&v| v < 0 || v >= n) {
+                                continue;
+                            }
+                            let key = morton::encode(c[0] as u32, c[1] as u32, c[2] as u32);
+                            if let Some(i) = cells.find(key) {
+                                gather(tree, cells, i, x, radius, &mut m);
+                            }
+                        }
+                    }
+                }
+                if m.count >= 3.0 {
+                    break;
+                }
+            }
+            match fit(&m, x) {
+                Some(p) => (p.project(x), Some(p)),
+                None => (x, None),
+            }
+        })
+        .unzip();
+    Mapped { positions, planes }
+}

@@ -1,0 +1,271 @@
+//! Hierarchical space partitioning (Keller et al., §3.2).
+//!
+//! The root voxel is the points' bounding cube, padded by [`crate::ReconOptions::padding`] of its
+//! edge on every side ([`octowrap_geom::Aabb::bounding_cube`]); level `j` splits it into `2^j`
+//! voxels per axis and keeps the non-empty ones (the paper's `V_j`).
+//!
+//! Reading: the paper builds an octree with neighbour navigation after Bhattacharya (2001). We
+//! sort the points once by their 63-bit Morton code (21 bits per axis); the voxel of a point at
+//! level `j` is then its code shifted right by `3 (21 - j)`, so every level's voxels are the runs
+//! of equal prefixes in one sorted array: each voxel knows its points as a contiguous range, the
+//! voxels of a level are in Morton order, and the eight children of a voxel are consecutive.
+//! Building a level is one O(|P|) scan (the paper's bound), done in parallel; neighbour look-ups
+//! go through a hash map from Morton code to voxel index ([`crate::keymap`]), O(1).
+//!
+//! Coordinates are local: `u = (p - cube.min) / cube.edge`, in `[0, 1)^3`, stored as `f32`
+//! (2^-24 of the cube, far below any level's voxel). Moments are accumulated in `f64`.
+
+use std::ops::Range;
+
+use octowrap_geom::{Aabb, DVec3, Moments, glam::Vec3, morton};
+use rayon::prelude::*;
+
+use crate::keymap::KeyMap;
+
+/// Bits per axis of the full-depth codes.
+const CODE_BITS: u32 = morton::MAX_DEPTH;
+
+/// The local frame: `world = origin + local * edge`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frame {
+    /// The cube's smallest corner.
+    pub origin: DVec3,
+    /// The cube's edge in world units.
+    pub edge: f64,
+}
+
+impl Frame {
+    /// World position of a local point.
+    pub(crate) fn to_world(self, local: DVec3) -> DVec3 {
+        self.origin + local * self.edge
+    }
+
+    /// The cube as a box.
+    pub(crate) fn cube(self) -> Aabb {
+        Aabb { min: self.origin, max: self.origin + DVec3::splat(self.edge) }
+    }
+}
+
+/// The occupied voxels of one level.
+#[derive(Debug, Default)]
+pub(crate) struct Cells {
+    /// The level.
+    pub level: u32,
+    /// Morton code of each occupied voxel, ascending.
+    pub keys: Vec<u64>,
+    /// Voxel `i` holds points `starts[i]..starts[i + 1]` of [`Octree::points`].
+    pub starts: Vec<u32>,
+    /// Moments of each voxel's points (local coordinates).
+    pub moments: Vec<Moments>,
+    /// Morton code to voxel index.
+    pub index: KeyMap,
+}
+
+impl Cells {
+    /// Number of occupied voxels.
+    pub(crate) fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// The index of the voxel with Morton code `key`, if occupied.
+    #[inline]
+    pub(crate) fn find(&self, key: u64) -> Option<usize> {
+        self.index.get(key).map(|i| i as usize)
+    }
+
+    /// Whether the voxel `key` is occupied.
+    #[inline]
+    pub(crate) fn occupied(&self, key: u64) -> bool {
+        self.index.contains(key)
+    }
+
+    /// The point range of voxel `i`.
+    #[inline]
+    pub(crate) fn range(&self, i: usize) -> Range<usize> {
+        self.starts[i] as usize..self.starts[i + 1] as usize
+    }
+
+    /// Number of points in voxel `i`.
+    #[inline]
+    pub(crate) fn count(&self, i: usize) -> usize {
+        (self.starts[i + 1] - self.starts[i]) as usize
+    }
+
+    /// Median number of points per occupied voxel.
+    pub(crate) fn median_count(&self) -> f64 {
+        let mut c: Vec<u32> = self.starts.windows(2).map(|w| w[1] - w[0]).collect();
+        if c.is_empty() {
+            return 0.0;
+        }
+        let mid = c.len() / 2;
+        let (_, m, _) = c.select_nth_unstable(mid);
+        f64::from(*m)
+    }
+
+    /// Edge length of this level's voxels in local units.
+    pub(crate) fn voxel(&self) -> f64 {
+        voxel_size(self.level)
+    }
+}
+
+/// Edge of a level-`j` voxel in local units.
+pub(crate) fn voxel_size(level: u32) -> f64 {
+    1.0 / f64::from(1u32 << level)
+}
+
+/// The points sorted along the Morton curve, and the occupied voxels of levels `0..=depth`.
+#[derive(Debug)]
+pub(crate) struct Octree {
+    /// World from local.
+    pub frame: Frame,
+    /// Local positions, in Morton order.
+    pub points: Vec<Vec3>,
+    /// Full-depth Morton codes of [`Octree::points`].
+    codes: Vec<u64>,
+    /// `levels[j]`: the occupied voxels of level `j`.
+    pub levels: Vec<Cells>,
+    /// Number of distinct quantised positions.
+    pub distinct: usize,
+}
+
+impl Octree {
+    /// Sorts the points and builds level 0. `points` must be finite and non-empty.
+    pub(crate) fn new(points: &[DVec3], padding: f64) -> Self {
+        let cube = Aabb::from_points(points).bounding_cube(padding).unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE });
+        let frame = Frame { origin: cube.min, edge: cube.size().x };
+        let inv = 1.0 / frame.edge;
+        let full = f64::from(1u32 << CODE_BITS);
+        let top = (1u32 << CODE_BITS) - 1;
+        let mut pairs: Vec<(u64, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let u = (*p - frame.origin) * inv;
+                let q = |x: f64| ((x * full).max(0.0) as u32).min(top);
+                (morton::encode(q(u.x), q(u.y), q(u.z)), i as u32)
+            })
+            .collect();
+        pairs.par_sort_unstable();
+        let distinct = 1 + pairs.windows(2).filter(|w| w[0].0 != w[1].0).count();
+        let local: Vec<Vec3> = pairs
+            .par_iter()
+            .map(|&(_, i)| {
+                let u = (points[i as usize] - frame.origin) * inv;
+                u.as_vec3().clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON))
+            })
+            .collect();
+        let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
+        drop(pairs);
+        let n = local.len() as u32;
+        let root = Cells {
+            level: 0,
+            keys: vec![0],
+            starts: vec![0, n],
+            moments: Vec::new(),
+            index: KeyMap::from_keys(&[0]),
+        };
+        Self { frame, points: local, codes, levels: vec![root], distinct }
+    }
+
+    /// The deepest level built so far.
+    pub(crate) fn depth(&self) -> u32 {
+        self.levels.len() as u32 - 1
+    }
+
+    /// Builds the next level (one O(|P|) scan, in parallel).
+    pub(crate) fn push_level(&mut self) {
+        let level = self.depth() + 1;
+        let shift = 3 * (CODE_BITS - level);
+        let codes = &self.codes;
+        let n = codes.len();
+        let mut starts: Vec<u32> = Vec::with_capacity(self.levels[level as usize - 1].len() * 4 + 2);
+        starts.push(0);
+        starts.par_extend((1..n).into_par_iter().filter(|&i| codes[i] >> shift != codes[i - 1] >> shift).map(|i| i as u32));
+        starts.push(n as u32);
+        let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
+        let index = KeyMap::from_keys(&keys);
+        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
+    }
+
+    /// Computes the moments of every level: the deepest from the points, the others by summing
+    /// children. Call once, after the last [`Octree::push_level`]; frees the codes.
+    pub(crate) fn finish(&mut self) {
+        self.codes = Vec::new();
+        let deepest = self.levels.len() - 1;
+        let pts = &self.points;
+        let cells = &self.levels[deepest];
+        let moments: Vec<Moments> = (0..cells.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut m = Moments::default();
+                for p in &pts[cells.range(i)] {
+                    m.add(p.as_dvec3());
+                }
+                m
+            })
+            .collect();
+        self.levels[deepest].moments = moments;
+        for j in (0..deepest).rev() {
+            let (coarse, fine) = self.levels.split_at_mut(j + 1);
+            let (coarse, fine) = (&mut coarse[j], &fine[0]);
+            let mut out = vec![Moments::default(); coarse.len()];
+            // Children are consecutive and in parent order.
+            let mut parent = 0;
+            for (k, m) in fine.keys.iter().zip(&fine.moments) {
+                while coarse.keys[parent] != k >> 3 {
+                    parent += 1;
+                }
+                out[parent].merge(m);
+            }
+            coarse.moments = out;
+        }
+    }
+}
+
+/// The 26 neighbour offsets plus the centre, in a fixed order.
+pub(crate) const BLOCK: [[i32; 3]; 27] = {
+    let mut out = [[0; 3]; 27];
+    let mut i = 0;
+    while i < 27 {
+        out[i] = [(i % 3) as i32 - 1, ((i / 3) % 3) as i32 - 1, (i / 9) as i32 - 1];
+        i += 1;
+    }
+    out
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_partition_the_points() {
+        let pts: Vec<DVec3> = (0..1000)
+            .map(|i| {
+                let t = f64::from(i) * 0.01;
+                DVec3::new(t.sin(), t.cos(), t * 0.1)
+            })
+            .collect();
+        let mut o = Octree::new(&pts, 0.01);
+        for _ in 0..5 {
+            o.push_level();
+        }
+        o.finish();
+        for (j, cells) in o.levels.iter().enumerate() {
+            assert_eq!(*cells.starts.last().unwrap() as usize, pts.len());
+            assert!(cells.keys.windows(2).all(|w| w[0] < w[1]));
+            let total: f64 = cells.moments.iter().map(|m| m.count).sum();
+            assert_eq!(total as usize, pts.len(), "level {j}");
+            // Every point lies in its voxel.
+            let h = cells.voxel() as f32;
+            for i in 0..cells.len() {
+                let c = morton::decode(cells.keys[i]);
+                for p in &o.points[cells.range(i)] {
+                    for a in 0..3 {
+                        let lo = c[a] as f32 * h;
+                        assert!(p[a] >= lo - 1e-6 && p[a] <= lo + h + 1e-6);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,241 @@
+//! Which faces may exist: the oriented-sheet mask that keeps open surfaces one-sided
+//! (Keller et al., §3.4 "rules preventing faces of M_j to capture parts of the interior hull", and
+//! the stop rules 1 and 2 of §3.5).
+//!
+//! Reading: the paper's stop rules (no face "on the opposite of v"; the cavity rule) are stated
+//! per visit, so read literally they depend on the order in which faces are processed, and in a
+//! prototype (`../shared/docs/reconstruction.md`) they both failed to keep holes open and refused
+//! to wrap one-voxel protrusions. We replace them by one order-independent predicate on slots,
+//! applied both to the regular refinement (§3.4) and to the closure (§3.5):
+//!
+//! 1. Every occupied voxel `c` of level `j + 1` gets a sheet: the plane fitted to the points of its
+//!    3x3x3 block (centre `m`, normal `n`). It is *reliable* when the block holds at least 8 points
+//!    and `sqrt(l0) < 0.5 sqrt(l1)` (a flat neighbourhood). It is *two-sided* when the voxel's own
+//!    points lie in two layers along `n` (a thin closed part: both sides are real surface).
+//! 2. The normal is oriented outwards by the level-`j` mesh, which encloses the object: the faces
+//!    `(p, d)` of `M_j` on `c`'s parent `p` vote with the sign of `d . n` (when `|d . n| > 0.3`). Mixed
+//!    votes (a part thinner than `p`, or the root) are settled by where `c`'s points lie in `p`
+//!    along `n` (the upper child of a thin plate faces up); no faces on `p`: the votes of the faces
+//!    on `p`'s 26 neighbours. Unsettled voxels take the orientation of their settled neighbours
+//!    (three synchronous sweeps); what remains (an isolated flat sheet seen equally from both
+//!    sides) faces the positive direction of its dominant axis, a deterministic tie-break.
+//! 3. Slot `(c, d)` is refused when `c`'s sheet is reliable, oriented and not two-sided, and either
+//!    `d . n <= -0.3` (the face looks into the object) or the face centre lies more than a quarter
+//!    voxel behind the plane (the underside of a tilted sheet).
+//!
+//! A closed surface keeps every outer face (no outward face looks inwards), an open sheet keeps
+//! one side only, so holes stay holes, and a one-voxel protrusion (no reliable plane) is wrapped.
+
+use octowrap_geom::{DVec3, Moments};
+use rayon::prelude::*;
+
+use crate::keymap::KeyMap;
+use crate::lattice::{Side, axis, offset, sign, slot, step};
+use crate::octree::{BLOCK, Cells, Octree};
+
+/// Minimum `|d . n|` for a face to vote, and the refusal threshold.
+const VOTE: f64 = 0.3;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// No reliable plane: every slot allowed.
+    Unreliable,
+    /// Two layers of points: every slot allowed.
+    TwoSided,
+    /// Reliable, orientation not yet known.
+    Unsigned,
+    /// Reliable and oriented: the mask applies.
+    Signed,
+}
+
+/// A voxel's sheet.
+#[derive(Clone, Copy, Debug)]
+struct Sheet {
+    m: DVec3,
+    n: DVec3,
+    state: State,
+}
+
+/// The per-voxel sheets of one level.
+#[derive(Debug, Default)]
+pub(crate) struct Mask {
+    sheets: Vec<Sheet>,
+    voxel: f64,
+}
+
+impl Mask {
+    /// A mask allowing everything (level 0, or when disabled).
+    pub(crate) fn open(cells: &Cells) -> Self {
+        let s = Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable };
+        Self { sheets: vec![s; cells.len()], voxel: cells.voxel() }
+    }
+
+    /// Whether slot `(cell, side)` of voxel `coords` may carry a face.
+    #[inline]
+    pub(crate) fn allows(&self, cell: usize, coords: [u32; 3], side: Side) -> bool {
+        let s = &self.sheets[cell];
+        if s.state != State::Signed {
+            return true;
+        }
+        let d = step(side);
+        let dn = f64::from(d[0]) * s.n.x + f64::from(d[1]) * s.n.y + f64::from(d[2]) * s.n.z;
+        if dn <= -VOTE {
+            return false;
+        }
+        let h = self.voxel;
+        let mut centre = DVec3::new(f64::from(coords[0]) + 0.5, f64::from(coords[1]) + 0.5, f64::from(coords[2]) + 0.5);
+        centre[axis(side)] += 0.5 * f64::from(sign(side));
+        (centre * h - s.m).dot(s.n) >= -0.25 * h
+    }
+
+    /// Number of voxels whose sheet is oriented (and so constrains faces).
+    pub(crate) fn signed_count(&self) -> usize {
+        self.sheets.iter().filter(|s| s.state == State::Signed).count()
+    }
+}
+
+/// Builds the mask of level `fine.level` from the points and the faces of the level above.
+pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &KeyMap) -> Mask {
+    let level = fine.level;
+    let h = fine.voxel();
+    let pts = &tree.points;
+    // 1. Block planes, reliability, two layers.
+    let mut sheets: Vec<Sheet> = (0..fine.len())
+        .into_par_iter()
+        .map(|i| {
+            let key = fine.keys[i];
+            let mut block = Moments::default();
+            for off in BLOCK {
+                if let Some(k) = offset(key, off, level).and_then(|k| fine.find(k)) {
+                    block.merge(&fine.moments[k]);
+                }
+            }
+            let unreliable = Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable };
+            if block.count < 8.0 {
+                return unreliable;
+            }
+            let Some(plane) = block.fit_plane() else { return unreliable };
+            let [l0, l1, _] = plane.eigenvalues;
+            if !(l0.sqrt() < 0.5 * l1.sqrt()) {
+                return unreliable;
+            }
+            let (m, n) = (plane.point, plane.normal);
+            let r = l0.sqrt();
+            let mut state = State::Unsigned;
+            if r > 0.05 * h && fine.count(i) >= 6 {
+                let (mut near, mut above, mut below) = (0usize, 0usize, 0usize);
+                for p in &pts[fine.range(i)] {
+                    let d = (p.as_dvec3() - m).dot(n);
+                    if d.abs() < 0.5 * r {
+                        near += 1;
+                    } else if d > 0.0 {
+                        above += 1;
+                    } else {
+                        below += 1;
+                    }
+                }
+                if above >= 2 && below >= 2 && 4 * near < fine.count(i) {
+                    state = State::TwoSided;
+                }
+            }
+            Sheet { m, n, state }
+        })
+        .collect();
+
+    // 2. Orientation from the coarse faces.
+    let faces_on = |p: u64| -> [bool; 6] { std::array::from_fn(|d| coarse_slots.contains(slot(p, d as u8))) };
+    let votes = |faces: [bool; 6], n: DVec3| -> (u32, u32) {
+        let (mut pos, mut neg) = (0, 0);
+        for (d, present) in faces.iter().enumerate() {
+            if *present {
+                let s = n[d / 2] * f64::from(sign(d as u8));
+                if s > VOTE {
+                    pos += 1;
+                } else if s < -VOTE {
+                    neg += 1;
+                }
+            }
+        }
+        (pos, neg)
+    };
+    sheets.par_iter_mut().enumerate().for_each(|(i, s)| {
+        if s.state != State::Unsigned {
+            return;
+        }
+        let key = fine.keys[i];
+        let parent = key >> 3;
+        let (pos, neg) = votes(faces_on(parent), s.n);
+        let orient = if pos > 0 && neg == 0 {
+            1.0
+        } else if neg > 0 && pos == 0 {
+            -1.0
+        } else if pos > 0 && neg > 0 {
+            // A part thinner than the parent: where do this child's points lie in it?
+            let pi = coarse.find(parent).expect("the parent of an occupied voxel is occupied");
+            let (pm, cm) = (coarse.moments[pi], fine.moments[i]);
+            let spread = s.n.dot(pm.covariance() * s.n).max(0.0).sqrt();
+            let delta = (cm.mean().unwrap_or_default() - pm.mean().unwrap_or_default()).dot(s.n);
+            if spread > 0.0 && delta.abs() > 0.25 * spread { delta.signum() } else { 0.0 }
+        } else {
+            let (mut pos, mut neg) = (0, 0);
+            for off in BLOCK {
+                if let Some(k) = offset(parent, off, level - 1) {
+                    if coarse.occupied(k) {
+                        let (p, q) = votes(faces_on(k), s.n);
+                        pos += p;
+                        neg += q;
+                    }
+                }
+            }
+            if pos > 2 * neg {
+                1.0
+            } else if neg > 2 * pos {
+                -1.0
+            } else {
+                0.0
+            }
+        };
+        if orient != 0.0 {
+            s.n *= orient;
+            s.state = State::Signed;
+        }
+    });
+
+    // 3. Spread orientation to unsettled reliable voxels, in synchronous sweeps.
+    for _ in 0..3 {
+        let updates: Vec<(usize, f64)> = (0..fine.len())
+            .into_par_iter()
+            .filter(|&i| sheets[i].state == State::Unsigned)
+            .filter_map(|i| {
+                let key = fine.keys[i];
+                let mut sum = 0.0;
+                for off in BLOCK {
+                    if let Some(k) = offset(key, off, level).and_then(|k| fine.find(k)) {
+                        if sheets[k].state == State::Signed {
+                            sum += sheets[k].n.dot(sheets[i].n);
+                        }
+                    }
+                }
+                (sum != 0.0).then_some((i, sum.signum()))
+            })
+            .collect();
+        if updates.is_empty() {
+            break;
+        }
+        for (i, o) in updates {
+            sheets[i].n *= o;
+            sheets[i].state = State::Signed;
+        }
+    }
+    // 4. Tie-break: face the positive direction of the dominant axis.
+    for s in &mut sheets {
+        if s.state == State::Unsigned {
+            let a = s.n.abs().max_position();
+            if s.n[a] < 0.0 {
+                s.n = -s.n;
+            }
+            s.state = State::Signed;
+        }
+    }
+    Mask { sheets, voxel: h }
+}

@@ -1,0 +1,92 @@
+//! Sparse data (Keller et al., §4.2): where the sampling density stops supporting refinement, fix
+//! the topology and continue by subdivision plus vertex mapping.
+//!
+//! Reading: the paper notes that beyond "a point density induced threshold" the mesh fragments
+//! (Fig. 8(b)) and suggests fixing the topology at a coarser level, then subdividing and mapping.
+//! It gives no threshold. We trust a level's topology while the median number of points per
+//! occupied voxel is at least [`crate::ReconOptions::min_median_points`] (default 8: a plane fit
+//! needs 3 points, and the 3x3x3 sheet of [`crate::sheet`] needs a few per voxel to orient; on
+//! the bunny the median falls about 4x per level, 13 at level 5 and 3 at level 6, where the
+//! wrapped mesh starts to fragment). [`crate::MaxLevel::Auto`] stops at the last trusted level.
+//! Deeper levels asked for are made by splitting every quad into four (shared edge midpoints and a
+//! face point; child `i` covers the parent's quadrant `i` and starts at the parent's corner `i`), so
+//! faces grow exactly 4x and the topology stays manifold; every vertex is then mapped again
+//! ([`crate::mapping::map_free`]). [`crate::SparseMode::Wrap`] wraps such levels anyway.
+
+use octowrap_geom::{DVec3, morton};
+use octowrap_mesh::{FaceOrigin, Quadrant};
+use rayon::prelude::*;
+
+use crate::lattice::{axis, corner_offset, plane_axes, sign, slot, unslot};
+
+/// A subdivided level's connectivity.
+#[derive(Debug, Default)]
+pub(crate) struct Subdivided {
+    /// Quads, four per parent face, in parent order.
+    pub quads: Vec<[u32; 4]>,
+    /// Lattice corner of every vertex (at the new level).
+    pub corners: Vec<[u32; 3]>,
+    /// Slot of every face: the parent quadrant's outer child voxel and the parent's side.
+    pub slots: Vec<u64>,
+    /// Parent and quadrant of every face.
+    pub origins: Vec<FaceOrigin>,
+    /// Initial positions: parents kept, edge and face points at midpoints and centroids.
+    pub positions: Vec<DVec3>,
+}
+
+/// Splits every quad into four.
+pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64], positions: &[DVec3]) -> Subdivided {
+    let mut edges: Vec<(u32, u32, u32)> = quads
+        .iter()
+        .enumerate()
+        .flat_map(|(f, q)| {
+            (0..4).map(move |k| {
+                let (a, b) = (q[k], q[(k + 1) % 4]);
+                (a.min(b), a.max(b), (4 * f + k) as u32)
+            })
+        })
+        .collect();
+    edges.par_sort_unstable();
+    // Edge point of every face edge.
+    let mut edge_vertex = vec![0u32; 4 * quads.len()];
+    let mut out_corners: Vec<[u32; 3]> = corners.iter().map(|c| c.map(|x| 2 * x)).collect();
+    let mut out_pos: Vec<DVec3> = positions.to_vec();
+    let mut i = 0;
+    while i < edges.len() {
+        let (a, b, _) = edges[i];
+        let id = out_corners.len() as u32;
+        let (ca, cb) = (corners[a as usize], corners[b as usize]);
+        out_corners.push([ca[0] + cb[0], ca[1] + cb[1], ca[2] + cb[2]]);
+        out_pos.push((positions[a as usize] + positions[b as usize]) * 0.5);
+        while i < edges.len() && edges[i].0 == a && edges[i].1 == b {
+            edge_vertex[edges[i].2 as usize] = id;
+            i += 1;
+        }
+    }
+    let mut out = Subdivided { quads: Vec::with_capacity(4 * quads.len()), ..Subdivided::default() };
+    for (f, q) in quads.iter().enumerate() {
+        let centre = out_corners.len() as u32;
+        let c: [[u32; 3]; 4] = q.map(|v| corners[v as usize]);
+        out_corners.push(std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2));
+        out_pos.push(q.iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25);
+        let (code, d) = unslot(slots[f]);
+        let pc = morton::decode(code);
+        let a = axis(d);
+        let (b, cax) = plane_axes(a);
+        for k in 0..4 {
+            let e_next = edge_vertex[4 * f + k];
+            let e_prev = edge_vertex[4 * f + (k + 3) % 4];
+            out.quads.push([q[k], e_next, centre, e_prev]);
+            let o = corner_offset(d, k);
+            let mut child = pc.map(|x| 2 * x);
+            child[b] += o[0];
+            child[cax] += o[1];
+            child[a] += u32::from(sign(d) > 0);
+            out.slots.push(slot(morton::encode(child[0], child[1], child[2]), d));
+            out.origins.push(FaceOrigin::Subface { parent: f as u32, quadrant: Quadrant(k as u8) });
+        }
+    }
+    out.corners = out_corners;
+    out.positions = out_pos;
+    out
+}
