@@ -38,7 +38,8 @@ const HEADER: usize = 48;
 /// Reads a whole E57 input.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     precheck(data)?;
-    let mut reader = e57::E57Reader::new(Cursor::new(data)).map_err(|e| convert("cannot read the E57 header and XML", e))?;
+    let mut reader =
+        e57::E57Reader::new(Cursor::new(data)).map_err(|e| convert("cannot read the E57 header and XML", e))?;
     let mut merged = PointCloud::default();
     let mut total = 0u64;
     for (k, pc) in reader.pointclouds().into_iter().enumerate() {
@@ -151,6 +152,9 @@ mod tests {
         ReadOptions::default()
     }
 
+    /// Points in the spherical scan of [`tiny`].
+    const SPHERICAL: usize = 64;
+
     /// Two scans written with the `e57` crate: Cartesian with a pose, spherical with an invalid point.
     fn tiny() -> Vec<u8> {
         use e57::{Quaternion, Record, RecordValue, Transform, Translation};
@@ -187,12 +191,13 @@ mod tests {
                 Record::SPHERICAL_INVALID_STATE,
             ];
             let mut pc = w.add_pointcloud("guid-b", proto).unwrap();
-            for (r, state) in [(2.0, 0), (3.0, 2), (4.0, 1)] {
+            // Ranges 2, 3, 4, 5, ... with invalid states 0, 2, 1, 0, 2, 1, ...: one point in three kept.
+            for k in 0..SPHERICAL {
                 pc.add_point(vec![
-                    RecordValue::Double(r),
+                    RecordValue::Double(2.0 + k as f64),
                     RecordValue::Double(0.0),
                     RecordValue::Double(0.0),
-                    RecordValue::Integer(state),
+                    RecordValue::Integer([0, 2, 1][k % 3]),
                 ])
                 .unwrap();
             }
@@ -206,8 +211,9 @@ mod tests {
     fn scans_merged_with_poses_invalid_skipped() {
         let m = read(&tiny(), &opts()).unwrap();
         let c = &m.vertices;
-        let want = [DVec3::new(10.0, 1.0, 0.0), DVec3::new(10.0, 2.0, 0.0), DVec3::new(2.0, 0.0, 0.0)];
-        assert_eq!(c.len(), 3, "{:?}", c.positions);
+        let mut want = vec![DVec3::new(10.0, 1.0, 0.0), DVec3::new(10.0, 2.0, 0.0)];
+        want.extend((0..SPHERICAL).step_by(3).map(|k| DVec3::new(2.0 + k as f64, 0.0, 0.0)));
+        assert_eq!(c.len(), want.len(), "{:?}", c.positions);
         for (p, w) in c.positions.iter().zip(want) {
             assert!((*p - w).length() < 1e-12, "{p} vs {w}");
         }

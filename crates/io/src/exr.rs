@@ -259,7 +259,10 @@ mod tests {
     fn position_images_from_xyz_or_rgb() {
         let d = image(&[("X", [1.0, 2.0, f32::NAN, 4.0]), ("Y", [0.0; 4]), ("Z", [5.0; 4])], false);
         let m = read(&d, &opts()).unwrap();
-        assert_eq!(m.vertices.positions, vec![DVec3::new(1.0, 0.0, 5.0), DVec3::new(2.0, 0.0, 5.0), DVec3::new(4.0, 0.0, 5.0)]);
+        assert_eq!(
+            m.vertices.positions,
+            vec![DVec3::new(1.0, 0.0, 5.0), DVec3::new(2.0, 0.0, 5.0), DVec3::new(4.0, 0.0, 5.0)]
+        );
         let d = image(&[("R", [1.0; 4]), ("G", [2.0; 4]), ("B", [3.0; 4])], true);
         assert_eq!(read(&d, &opts()).unwrap().vertices.positions, vec![DVec3::new(1.0, 2.0, 3.0); 4]);
         let d = image(&[("Y", [1.0; 4])], true);

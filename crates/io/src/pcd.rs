@@ -235,9 +235,9 @@ impl Header {
                 p
             }
             (Some(p), None, _) => p,
-            (None, Some(w), h) => w
-                .checked_mul(h.unwrap_or(1))
-                .ok_or_else(|| Error::limit(data_loc, "WIDTH × HEIGHT overflows"))?,
+            (None, Some(w), h) => {
+                w.checked_mul(h.unwrap_or(1)).ok_or_else(|| Error::limit(data_loc, "WIDTH × HEIGHT overflows"))?
+            }
             (None, None, _) => return Err(Error::invalid(data_loc, "PCD header gives neither POINTS nor WIDTH")),
         };
         Ok(Self { fields, roles, point_step: offset, values_per_point, points, viewpoint, data: kind, data_start })
@@ -446,7 +446,11 @@ fn read_ascii(data: &[u8], h: &Header, max: u64) -> Result<PointCloud> {
                     rgb_bits = parse_packed_rgb(tok, field.ty).ok_or_else(|| {
                         Error::invalid(
                             at(&lines),
-                            format!("expected a packed colour for '{}', found '{}'", field.name, String::from_utf8_lossy(tok)),
+                            format!(
+                                "expected a packed colour for '{}', found '{}'",
+                                field.name,
+                                String::from_utf8_lossy(tok)
+                            ),
                         )
                     })?;
                 } else if k == 0 {
@@ -517,18 +521,15 @@ fn decompress_body(data: &[u8], h: &Header, opts: &ReadOptions) -> Result<Vec<u8
             ),
         ));
     }
-    let payload = data
-        .get(start + 8..)
-        .and_then(|rest| rest.get(..compressed))
-        .ok_or_else(|| {
-            Error::invalid(
-                Location::Byte(start as u64 + 8),
-                format!(
-                    "binary_compressed declares {compressed} compressed bytes, but only {} remain",
-                    data.len().saturating_sub(start + 8)
-                ),
-            )
-        })?;
+    let payload = data.get(start + 8..).and_then(|rest| rest.get(..compressed)).ok_or_else(|| {
+        Error::invalid(
+            Location::Byte(start as u64 + 8),
+            format!(
+                "binary_compressed declares {compressed} compressed bytes, but only {} remain",
+                data.len().saturating_sub(start + 8)
+            ),
+        )
+    })?;
     justify(h.points, 0, usize::MAX, opts.limits.max_points, "points", at)?;
     if uncompressed > opts.limits.max_decompressed_bytes {
         return Err(Error::limit(
@@ -751,7 +752,9 @@ mod tests {
 
     #[test]
     fn hostile_headers_fail_cleanly() {
-        let huge = format!("{HEAD}FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000000000\nPOINTS 1000000000000\nDATA binary\n");
+        let huge = format!(
+            "{HEAD}FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000000000\nPOINTS 1000000000000\nDATA binary\n"
+        );
         assert_eq!(read(huge.as_bytes(), &opts()).unwrap_err().kind, ErrorKind::LimitExceeded);
         let asc = huge.replace("DATA binary", "DATA ascii");
         assert_eq!(read(asc.as_bytes(), &opts()).unwrap_err().kind, ErrorKind::LimitExceeded);
@@ -849,11 +852,9 @@ mod tests {
     #[test]
     fn real_pcl_files() {
         let Some(dir) = data_dir() else { return };
-        for (name, count, normals, colors) in [
-            ("bunny.pcd", 397, false, false),
-            ("bun0.pcd", 397, true, false),
-            ("milk.pcd", 13_704, false, false),
-        ] {
+        for (name, count, normals, colors) in
+            [("bunny.pcd", 397, false, false), ("bun0.pcd", 397, true, false), ("milk.pcd", 13_704, false, false)]
+        {
             let data = std::fs::read(dir.join(name)).unwrap();
             let h = Header::parse(&data).unwrap();
             assert_eq!(h.points, count, "{name}");
