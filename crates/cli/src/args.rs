@@ -25,4 +25,6 @@ pub enum Command {
     Convert(cmd::convert::Args),
     /// Print counts, bounds, properties and face sizes of point clouds and meshes.
     Info(cmd::info::Args),
+    /// Check meshes for two-manifoldness, orientation, holes and defects (for CI pipelines).
+    Validate(cmd::validate::Args),
 }

@@ -3,6 +3,7 @@
 pub mod convert;
 pub mod info;
 pub mod input;
+pub mod validate;
 
 use std::process::ExitCode;
 
@@ -13,5 +14,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Convert(a) => convert::run(&a),
         Command::Info(a) => info::run(&a),
+        Command::Validate(a) => validate::run(&a),
     }
 }

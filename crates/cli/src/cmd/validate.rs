@@ -1,0 +1,203 @@
+//! `octowrap validate`: two-manifold checks for CI.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::ValueEnum;
+use octowrap_io::Format as MeshFormat;
+use octowrap_validate::{FileResult, Format, Options, Outcome, Requirement, validate_mesh, write_report};
+use rayon::prelude::*;
+
+use super::input::InputArgs;
+
+/// Check meshes for two-manifoldness, orientation, holes and defects.
+///
+/// Every file (or every mesh file under a directory) is read as a raw indexed face list, so broken
+/// meshes are described rather than rejected. A human summary goes to standard error; `--format`
+/// writes a machine report (JSON, JUnit XML or SARIF 2.1.0) to standard output.
+///
+/// Definitions (they differ between tools; these are octowrap's):
+///   edge           two vertices that follow each other in a face; its sides are the faces using it
+///   boundary edge  an edge with one side; a boundary loop is a connected set of them (a hole)
+///   manifold       every index valid, faces of 3+ vertices, every edge 1 or 2 sides, and the faces
+///                  around every vertex form one fan (boundaries allowed)
+///   oriented       manifold, and no directed edge a->b used by two faces
+///   closed         no boundary edges
+///   watertight     manifold and closed (ask for `oriented` too if winding matters)
+///   clean          finite coordinates; no repeated-index, zero-area or duplicate faces
+///
+/// Issue codes are stable: E-INDEX-RANGE, E-FACE-SIZE, E-NONFINITE-VERTEX, E-NONMANIFOLD-EDGE,
+/// E-NONMANIFOLD-VERTEX, E-ORIENTATION, W-DEGENERATE-FACE, W-ZERO-AREA-FACE, W-DUPLICATE-FACE,
+/// W-DUPLICATE-VERTEX, W-UNUSED-VERTEX, I-BOUNDARY-EDGE.
+///
+/// Exit codes: 0 every file meets every required property; 1 a required property fails;
+/// 2 a file could not be read.
+///
+/// Examples:
+///   octowrap validate part.stl
+///   octowrap validate --require watertight,oriented meshes/
+///   octowrap validate --format junit models/ > validate.xml
+///   octowrap validate --format sarif scan.ply > validate.sarif
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Mesh files (PLY, OBJ, OFF, STL) or directories to search for them.
+    #[arg(required = true)]
+    pub paths: Vec<PathBuf>,
+    /// Properties that must hold, comma-separated: manifold, oriented, closed, watertight, clean.
+    #[arg(long, value_delimiter = ',', default_value = "manifold", value_name = "PROPERTY,...")]
+    pub require: Vec<RequireArg>,
+    /// Machine-readable report on standard output.
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<ReportFormat>,
+    /// Merge vertices with exactly equal positions before checking: `auto` does it for STL only
+    /// (STL stores every triangle corner separately).
+    #[arg(long, default_value = "auto", value_name = "WHEN")]
+    pub weld: Weld,
+    /// Most offending elements listed per finding (counts are always complete).
+    #[arg(long, default_value_t = 100, value_name = "N")]
+    pub max_elements: usize,
+    /// Print only the summary line on standard error.
+    #[arg(long, short)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+/// `--require` values.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum RequireArg {
+    /// Every edge 1 or 2 faces, one fan per vertex, valid indices.
+    Manifold,
+    /// Manifold and consistently oriented.
+    Oriented,
+    /// No boundary edges.
+    Closed,
+    /// Manifold and closed.
+    Watertight,
+    /// No degenerate, zero-area or duplicate faces; finite coordinates.
+    Clean,
+}
+
+impl From<RequireArg> for Requirement {
+    fn from(r: RequireArg) -> Self {
+        match r {
+            RequireArg::Manifold => Self::Manifold,
+            RequireArg::Oriented => Self::Oriented,
+            RequireArg::Closed => Self::Closed,
+            RequireArg::Watertight => Self::Watertight,
+            RequireArg::Clean => Self::Clean,
+        }
+    }
+}
+
+/// `--format` values.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ReportFormat {
+    /// JSON document with every count and finding.
+    Json,
+    /// JUnit XML (one test case per file).
+    Junit,
+    /// SARIF 2.1.0 (one result per finding).
+    Sarif,
+    /// The human summary, on standard output.
+    Text,
+}
+
+/// `--weld` values.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum Weld {
+    /// STL files only.
+    Auto,
+    /// Every file.
+    Always,
+    /// No file.
+    Never,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let files = collect(&args.paths)?;
+    let required: Vec<Requirement> = args.require.iter().map(|&r| r.into()).collect();
+    let results: Vec<FileResult> = files
+        .par_iter()
+        .map(|path| {
+            let name = path.display().to_string();
+            let outcome = match args.input_args.read_detected(path) {
+                Err(e) => Outcome::Unreadable { error: format!("{e:#}") },
+                Ok((format, mesh)) => {
+                    let mut o = Options::default();
+                    o.max_elements = args.max_elements;
+                    o.weld = match args.weld {
+                        Weld::Always => true,
+                        Weld::Never => false,
+                        Weld::Auto => format == MeshFormat::Stl,
+                    };
+                    Outcome::Mesh(validate_mesh(&mesh, &o))
+                }
+            };
+            FileResult::new(name, outcome, &required)
+        })
+        .collect();
+
+    let stderr = std::io::stderr();
+    let mut err = stderr.lock();
+    if args.quiet {
+        let passed = results.iter().filter(|r| r.passed()).count();
+        writeln!(err, "{} files, {passed} passed", results.len())?;
+    } else if !matches!(args.format, Some(ReportFormat::Text)) {
+        write_report(&mut err, Format::Text, &results)?;
+    }
+    if let Some(f) = args.format {
+        let format = match f {
+            ReportFormat::Json => Format::Json,
+            ReportFormat::Junit => Format::Junit,
+            ReportFormat::Sarif => Format::Sarif,
+            ReportFormat::Text => Format::Text,
+        };
+        let stdout = std::io::stdout();
+        let mut out = std::io::BufWriter::new(stdout.lock());
+        write_report(&mut out, format, &results)?;
+        out.flush()?;
+    }
+    Ok(if results.iter().any(|r| matches!(r.outcome, Outcome::Unreadable { .. })) {
+        ExitCode::from(2)
+    } else if results.iter().all(FileResult::passed) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// The files named, with directories searched (recursively, sorted) for mesh files.
+fn collect(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found = Vec::new();
+            walk(p, &mut found).with_context(|| format!("cannot list {}", p.display()))?;
+            found.sort();
+            if found.is_empty() {
+                anyhow::bail!("{} holds no mesh files (ply, obj, off, stl)", p.display());
+            }
+            out.extend(found);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    for entry in std::fs::read_dir(dir)? {
+        let path = entry?.path();
+        if path.is_dir() {
+            walk(&path, out)?;
+        } else if MeshFormat::from_path(&path).is_some_and(MeshFormat::holds_faces) {
+            out.push(path);
+        }
+    }
+    Ok(())
+}
