@@ -1,0 +1,181 @@
+//! Byte-level primitives of spec/FORMAT.md §2 (Conventions): LEB128 varints, zigzag, byte planes,
+//! and a bounds-checked reader that names the offset of every failure.
+
+use crate::error::{Error, Where};
+
+/// Appends `v` as an unsigned LEB128 varint (7 bits per byte, least significant group first).
+pub fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    while v >= 0x80 {
+        out.push((v as u8) | 0x80);
+        v >>= 7;
+    }
+    out.push(v as u8);
+}
+
+/// Zigzag mapping of a signed value: 0, -1, 1, -2, ... become 0, 1, 2, 3, ...
+pub fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
+/// Inverse of [`zigzag`].
+pub fn unzigzag(v: u64) -> i64 {
+    ((v >> 1) as i64) ^ -((v & 1) as i64)
+}
+
+/// Writes `values` as byte planes (spec §2.4): one count byte `P` (the fewest bytes that hold the
+/// largest value, 0 for all zeros), then `P` planes of `values.len()` bytes, least significant first.
+pub fn put_planes(out: &mut Vec<u8>, values: &[u64]) {
+    let max = values.iter().copied().max().unwrap_or(0);
+    let planes = (64 - max.leading_zeros()).div_ceil(8) as usize;
+    out.push(planes as u8);
+    for p in 0..planes {
+        out.extend(values.iter().map(|&v| (v >> (8 * p)) as u8));
+    }
+}
+
+/// A cursor over one stream of a level's decompressed payload (or over the preamble).
+/// Every read is bounds-checked; failures name the stream and the absolute offset.
+pub struct Reader<'a> {
+    data: &'a [u8],
+    pos: usize,
+    /// Offset of `data[0]` within the region that `place` names.
+    base: u64,
+    place: Where,
+    stream: &'static str,
+}
+
+impl<'a> Reader<'a> {
+    /// A reader over `data`, which starts at byte `base` of the region `place`.
+    pub fn new(data: &'a [u8], base: u64, place: Where, stream: &'static str) -> Self {
+        Self { data, pos: 0, base, place, stream }
+    }
+
+    /// Offset of the next byte within the region.
+    pub fn offset(&self) -> u64 {
+        self.base + self.pos as u64
+    }
+
+    /// Bytes not yet read.
+    pub fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+
+    /// An `Invalid` error at the current offset.
+    pub fn invalid(&self, reason: impl Into<String>) -> Error {
+        Error::Invalid { place: self.place, offset: self.offset(), what: self.stream, reason: reason.into() }
+    }
+
+    /// Fails unless every byte was consumed (streams have exact lengths).
+    pub fn finish(&self) -> Result<(), Error> {
+        if self.remaining() != 0 {
+            return Err(self.invalid(format!("{} unused bytes at the end of the stream", self.remaining())));
+        }
+        Ok(())
+    }
+
+    /// Reads one byte.
+    pub fn u8(&mut self) -> Result<u8, Error> {
+        let Some(&b) = self.data.get(self.pos) else {
+            return Err(self.invalid("stream ends early"));
+        };
+        self.pos += 1;
+        Ok(b)
+    }
+
+    /// Reads `n` bytes.
+    pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], Error> {
+        if self.remaining() < n {
+            return Err(self.invalid(format!("stream ends early: {n} bytes needed, {} left", self.remaining())));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+
+    /// Reads a little-endian `u32`.
+    pub fn u32(&mut self) -> Result<u32, Error> {
+        let b = self.bytes(4)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    /// Reads an unsigned LEB128 varint of at most 10 bytes whose value fits in 64 bits.
+    pub fn varint(&mut self) -> Result<u64, Error> {
+        let mut v = 0u64;
+        for i in 0..10 {
+            let b = self.u8()?;
+            let low = u64::from(b & 0x7f);
+            if i == 9 && b > 1 {
+                return Err(self.invalid("varint overflows 64 bits"));
+            }
+            v |= low << (7 * i);
+            if b & 0x80 == 0 {
+                return Ok(v);
+            }
+        }
+        Err(self.invalid("varint longer than 10 bytes"))
+    }
+
+    /// Reads a varint that must be at most `max`.
+    pub fn varint_max(&mut self, max: u64, what: &str) -> Result<u64, Error> {
+        let at = self.offset();
+        let v = self.varint()?;
+        if v > max {
+            return Err(Error::Invalid {
+                place: self.place,
+                offset: at,
+                what: self.stream,
+                reason: format!("{what} {v} exceeds {max}"),
+            });
+        }
+        Ok(v)
+    }
+
+    /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes.
+    pub fn planes(&mut self, n: usize, max_planes: u8) -> Result<Vec<u64>, Error> {
+        let p = self.u8()?;
+        if p > max_planes {
+            return Err(self.invalid(format!("plane count {p} exceeds {max_planes}")));
+        }
+        let need = n.checked_mul(usize::from(p)).ok_or_else(|| self.invalid("plane block too large"))?;
+        if need > self.remaining() {
+            return Err(self.invalid(format!("plane block needs {need} bytes, {} left", self.remaining())));
+        }
+        let mut out = vec![0u64; n];
+        for plane in 0..usize::from(p) {
+            let bytes = self.bytes(n)?;
+            let shift = 8 * plane;
+            for (v, &b) in out.iter_mut().zip(bytes) {
+                *v |= u64::from(b) << shift;
+            }
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn varints_and_planes_round_trip() {
+        let vals = [0u64, 1, 127, 128, 300, u64::from(u32::MAX), u64::MAX];
+        let mut b = Vec::new();
+        for &v in &vals {
+            put_varint(&mut b, v);
+        }
+        put_planes(&mut b, &[1, 700, 3]);
+        let mut r = Reader::new(&b, 0, Where::Preamble, "test");
+        for &v in &vals {
+            assert_eq!(r.varint().unwrap(), v);
+        }
+        assert_eq!(r.planes(3, 8).unwrap(), vec![1, 700, 3]);
+        r.finish().unwrap();
+        for v in [-3i64, -1, 0, 1, i64::MIN, i64::MAX] {
+            assert_eq!(unzigzag(zigzag(v)), v);
+        }
+        assert!(Reader::new(&[0xff; 11], 0, Where::Preamble, "t").varint().is_err());
+        assert!(Reader::new(&[0xff; 9].iter().chain(&[2]).copied().collect::<Vec<_>>(), 0, Where::Preamble, "t")
+            .varint()
+            .is_err());
+    }
+}

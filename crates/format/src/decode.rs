@@ -1,0 +1,503 @@
+//! The level decoder: spec §4-§6 read in order. Works on plain arrays; every count is checked
+//! against the level-table entry (itself checked against [`crate::Limits`]) before allocating.
+
+use crate::bytes::{Reader, unzigzag};
+use crate::container::LevelEntry;
+use crate::error::{Error, Where};
+use crate::lattice::{self, MAX_LATTICE_DEPTH};
+use crate::level::{
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, STREAM_NAMES,
+    Topo, geometry_pass, number_edges, rotated, s,
+};
+
+/// One decoded level on plain arrays.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlainLevel {
+    /// Face offsets (CSR, `face_count + 1` entries).
+    pub offsets: Vec<u32>,
+    /// Face corners.
+    pub indices: Vec<u32>,
+    /// Per face: parent face in the level above, or `u32::MAX` for a created face.
+    pub parents: Vec<u32>,
+    /// Per face: the parent quadrant (0 for created faces).
+    pub quadrants: Vec<u8>,
+    /// Per face: lattice slot, when the level carries lattice coordinates.
+    pub slots: Option<Vec<([u32; 3], u8)>>,
+    /// Per vertex: lattice corner, when the level carries lattice coordinates.
+    pub corners: Option<Vec<[u32; 3]>>,
+    /// Grid coordinates of the vertices (quantized files).
+    pub q: Vec<[i64; 3]>,
+    /// Positions of the vertices (exact files).
+    pub exact: Vec<[f64; 3]>,
+}
+
+impl PlainLevel {
+    /// The level as a parent of the next.
+    pub fn as_parent(&self) -> Parent<'_> {
+        Parent {
+            offsets: &self.offsets,
+            indices: &self.indices,
+            q: &self.q,
+            slots: self.slots.as_deref(),
+            corners: self.corners.as_deref(),
+        }
+    }
+}
+
+/// How positions are stored, from the file header.
+#[derive(Clone, Copy, Debug)]
+pub struct GridInfo {
+    /// Positions stored exactly (binary64).
+    pub exact: bool,
+    /// The grid is tied to the octree cube.
+    pub tied: bool,
+    /// Grid bits.
+    pub bits: u32,
+}
+
+/// Decodes level `k`'s decompressed payload.
+pub fn decode_level(
+    k: u32,
+    payload: &[u8],
+    entry: &LevelEntry,
+    parent: Option<&PlainLevel>,
+    grid: GridInfo,
+) -> Result<PlainLevel, Error> {
+    let place = Where::Payload(k);
+    let mut head = Reader::new(payload, 0, place, "level block header");
+    let bad = |offset: u64, reason: String| Error::Invalid { place, offset, what: "level block header", reason };
+    let mode = match head.u8()? {
+        0 => Mode::Base,
+        1 => Mode::Generic,
+        2 => Mode::Lattice,
+        m => return Err(bad(0, format!("unknown mode {m}"))),
+    };
+    if (mode == Mode::Base) != (k == 0) {
+        return Err(bad(0, format!("mode {} is not allowed at level {k}", mode as u8)));
+    }
+    let flags = head.u8()?;
+    if flags & !BLOCK_FLAG_LATTICE != 0 {
+        return Err(bad(1, format!("reserved flag bits set: {flags:#x}")));
+    }
+    let has_lattice = flags & BLOCK_FLAG_LATTICE != 0;
+    if has_lattice && k > MAX_LATTICE_DEPTH {
+        return Err(bad(1, format!("lattice coordinates are not allowed below level {MAX_LATTICE_DEPTH}")));
+    }
+    if mode == Mode::Lattice && (!has_lattice || !(grid.exact || grid.tied)) {
+        return Err(bad(0, "lattice mode needs the lattice flag and an exact or cube-tied grid".into()));
+    }
+    if head.bytes(2)? != [0, 0] {
+        return Err(bad(2, "reserved bytes are not zero".into()));
+    }
+    let (nv, nf, nc) = (head.u32()?, head.u32()?, head.u32()?);
+    if (nv, nf, nc) != (entry.vertex_count, entry.face_count, entry.corner_count) {
+        return Err(bad(4, "vertex, face or corner count differs from the level table".into()));
+    }
+    let (nv, nf, nc) = (nv as usize, nf as usize, nc as usize);
+    let mut sizes = [0usize; STREAM_COUNT];
+    let mut total = BLOCK_HEADER_SIZE;
+    for sz in &mut sizes {
+        *sz = head.u32()? as usize;
+        total = total.saturating_add(*sz);
+    }
+    if total != payload.len() {
+        return Err(bad(16, format!("streams take {total} bytes, the payload has {}", payload.len())));
+    }
+    let mut st: Vec<Reader<'_>> = Vec::with_capacity(STREAM_COUNT);
+    let mut at = BLOCK_HEADER_SIZE;
+    for (i, &sz) in sizes.iter().enumerate() {
+        st.push(Reader::new(&payload[at..at + sz], at as u64, place, STREAM_NAMES[i]));
+        at += sz;
+    }
+    let used: &[usize] = match (mode, has_lattice) {
+        (Mode::Base, false) => &[s::FACE_SIZES, s::CORNERS, s::GEOMETRY],
+        (Mode::Base, true) => &[s::FACE_SIZES, s::CORNERS, s::RAW_LATTICE, s::GEOMETRY],
+        (Mode::Generic, false) => &[0, 2, 4, 5, 6, 7, 8, 9, 11],
+        (Mode::Generic, true) => &[0, 2, 4, 5, 6, 7, 8, 9, 10, 11],
+        (Mode::Lattice, _) => &[0, 1, 2, 3, 6, 7, 8, 9, 11],
+    };
+    for (i, r) in st.iter().enumerate() {
+        if !used.contains(&i) && r.remaining() != 0 {
+            return Err(r.invalid(format!("stream must be empty in mode {}", mode as u8)));
+        }
+    }
+
+    let mut out = PlainLevel { offsets: Vec::with_capacity(nf + 1), ..PlainLevel::default() };
+    out.offsets.push(0);
+    out.indices = vec![0u32; nc];
+    let mut parent_quads = Vec::new();
+    if mode == Mode::Base {
+        out.parents = vec![NO_PARENT; nf];
+        out.quadrants = vec![0; nf];
+        let mut sum = 0u64;
+        for _ in 0..nf {
+            let n = st[s::FACE_SIZES].varint_max(u64::from(u32::MAX) - 3, "face size")? + 3;
+            sum += n;
+            if sum > nc as u64 {
+                return Err(st[s::FACE_SIZES].invalid("face sizes add up to more than corner_count"));
+            }
+            out.offsets.push(sum as u32);
+        }
+        if sum != nc as u64 {
+            return Err(st[s::FACE_SIZES].invalid(format!("face sizes add up to {sum}, corner_count is {nc}")));
+        }
+        let mut prev = 0i64;
+        for c in 0..nc {
+            prev += unzigzag(st[s::CORNERS].varint()?);
+            if prev < 0 || prev >= nv as i64 {
+                return Err(st[s::CORNERS].invalid(format!("vertex index {prev} out of range 0..{nv}")));
+            }
+            out.indices[c] = prev as u32;
+        }
+    } else {
+        let p = parent.expect("levels above 0 have a parent");
+        let pp = p.as_parent();
+        // §5.3 / §5.4: subfaces, then created faces; predicted names per corner.
+        let mut pred = vec![u64::MAX; nc];
+        let mut pos = vec![NONE; nc];
+        let rot_of = |st: &mut [Reader<'_>]| -> Result<u8, Error> {
+            let r = st[s::ROTATIONS].u8()?;
+            if r & !7 != 0 {
+                return Err(st[s::ROTATIONS].invalid(format!("rotation byte {r:#x} has reserved bits set")));
+            }
+            Ok(r)
+        };
+        let mut corner = 0usize;
+        let mut slots: Vec<([u32; 3], u8)> = Vec::new();
+        if mode == Mode::Lattice {
+            parent_quads = pp.canonical_quads().map_err(|f| {
+                st[s::CHILD_MASKS].invalid(format!(
+                    "lattice mode needs a lattice parent of quads (parent face {f})"
+                ))
+            })?;
+            let pslots = pp.slots.expect("checked");
+            let n = 1u64 << (k + 1);
+            let mut depth_byte = 0u8;
+            let mut sub = 0usize;
+            for (pf, pslot) in pslots.iter().enumerate() {
+                let mask = st[s::CHILD_MASKS].u8()?;
+                if mask & 0xf0 != 0 {
+                    return Err(st[s::CHILD_MASKS].invalid(format!("child mask {mask:#x} has bits above 3")));
+                }
+                for qd in 0..4u8 {
+                    if mask & (1 << qd) == 0 {
+                        continue;
+                    }
+                    if sub == nf {
+                        return Err(st[s::CHILD_MASKS].invalid("more subfaces than face_count"));
+                    }
+                    if sub % 8 == 0 {
+                        depth_byte = st[s::DEPTHS].u8()?;
+                    }
+                    let inner = depth_byte >> (sub % 8) & 1 == 1;
+                    let pc = lattice::slot_corners(pslot.0, pslot.1)[rotated(parent_quads[pf].1, usize::from(qd))];
+                    let slot = lattice::child_slot(pslot.0, pslot.1, pc, inner).expect("a slot corner");
+                    slots.push(slot);
+                    out.parents.push(pf as u32);
+                    out.quadrants.push(qd);
+                    sub += 1;
+                }
+            }
+            if sub % 8 != 0 && depth_byte >> (sub % 8) != 0 {
+                return Err(st[s::DEPTHS].invalid("unused depth bits are not zero"));
+            }
+            let mut key = 0u64;
+            for i in sub..nf {
+                let gap = st[s::CREATED_KEYS].varint_max(6 * n * n * n, "slot key gap")?;
+                key = if i == sub { gap } else { key + 1 + gap };
+                let slot = lattice::slot_from_key(key, k)
+                    .ok_or_else(|| st[s::CREATED_KEYS].invalid(format!("slot key {key} outside level {k}")))?;
+                slots.push(slot);
+                out.parents.push(NO_PARENT);
+                out.quadrants.push(0);
+            }
+            if nc != 4 * nf {
+                return Err(bad(12, format!("lattice levels are quads: corner_count must be {}", 4 * nf)));
+            }
+            for (f, slot) in slots.iter().enumerate() {
+                let r = rot_of(&mut st)?;
+                let sc = lattice::slot_corners(slot.0, slot.1);
+                for i in 0..4 {
+                    let cp = rotated(r, i);
+                    pred[corner] = lattice::corner_key(sc[cp], k);
+                    if out.parents[f] != NO_PARENT {
+                        pos[corner] = cp as u32;
+                    }
+                    corner += 1;
+                }
+                out.offsets.push(corner as u32);
+            }
+        } else {
+            let (edge_of_corner, ne) = number_edges(pp.offsets, pp.indices);
+            let pv = p.q.len().max(p.exact.len()) as u64;
+            let (pv, ne, pnf) = (pv, u64::from(ne), pp.face_count() as u64);
+            for pf in 0..pp.face_count() {
+                let face = pp.face(pf);
+                let n = face.len();
+                let mut mask_bytes = [0u8; 32];
+                let nb = n.div_ceil(8);
+                let mut bits = Vec::new();
+                for b in 0..nb {
+                    let m = st[s::CHILD_MASKS].u8()?;
+                    let valid = n - 8 * b;
+                    if valid < 8 && m >> valid != 0 {
+                        return Err(st[s::CHILD_MASKS].invalid("child mask has bits beyond the face's corners"));
+                    }
+                    if b < 32 {
+                        mask_bytes[b] = m;
+                    } else {
+                        bits.push(m);
+                    }
+                }
+                for qd in 0..n {
+                    let m = if qd / 8 < 32 { mask_bytes[qd / 8] } else { bits[qd / 8 - 32] };
+                    if m >> (qd % 8) & 1 == 0 {
+                        continue;
+                    }
+                    if out.parents.len() == nf || corner + 4 > nc {
+                        return Err(st[s::CHILD_MASKS].invalid("more subfaces than face_count or corner_count allow"));
+                    }
+                    let qd8 = u8::try_from(qd)
+                        .map_err(|_| st[s::CHILD_MASKS].invalid("quadrants above 255 cannot be stored"))?;
+                    let r = rot_of(&mut st)?;
+                    let base = pp.offsets[pf] as usize;
+                    let layout = [
+                        u64::from(face[qd]),
+                        pv + u64::from(edge_of_corner[base + qd]),
+                        pv + ne + pf as u64,
+                        pv + u64::from(edge_of_corner[base + (qd + n - 1) % n]),
+                    ];
+                    for i in 0..4 {
+                        let cp = rotated(r, i);
+                        pred[corner] = layout[cp];
+                        pos[corner] = cp as u32;
+                        corner += 1;
+                    }
+                    out.offsets.push(corner as u32);
+                    out.parents.push(pf as u32);
+                    out.quadrants.push(qd8);
+                }
+            }
+            let _ = pnf;
+            for _ in out.parents.len()..nf {
+                let n = st[s::FACE_SIZES].varint_max(u64::from(u32::MAX) - 3, "face size")? + 3;
+                if (corner as u64) + n > nc as u64 {
+                    return Err(st[s::FACE_SIZES].invalid("face sizes add up to more than corner_count"));
+                }
+                corner += n as usize;
+                out.offsets.push(corner as u32);
+                out.parents.push(NO_PARENT);
+                out.quadrants.push(0);
+            }
+            if corner != nc {
+                return Err(st[s::FACE_SIZES].invalid(format!("faces hold {corner} corners, corner_count is {nc}")));
+            }
+        }
+        // §5.5: the name set and splits.
+        let mut names: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
+        names.sort_unstable();
+        names.dedup();
+        let r = &mut st[s::EXTRA_NAMES];
+        let ne = r.varint_max(nv as u64, "extra name count")? as usize;
+        let mut extras = Vec::with_capacity(ne);
+        let mut name = 0u64;
+        for i in 0..ne {
+            let gap = r.varint()?;
+            name = if i == 0 { Some(gap) } else { name.checked_add(1).and_then(|x| x.checked_add(gap)) }
+                .filter(|&x| x != u64::MAX)
+                .ok_or_else(|| r.invalid("extra name overflows"))?;
+            if names.binary_search(&name).is_ok() {
+                return Err(r.invalid(format!("extra name {name} is already a predicted name")));
+            }
+            if mode == Mode::Lattice && lattice::corner_from_key(name, k).is_none() {
+                return Err(r.invalid(format!("extra name {name} is not a lattice corner of level {k}")));
+            }
+            extras.push(name);
+        }
+        if !extras.is_empty() {
+            names.extend(extras);
+            names.sort_unstable();
+        }
+        let mut count = vec![1u32; names.len()];
+        let r = &mut st[s::SPLITS];
+        let nsplit = r.varint_max(names.len() as u64, "split count")? as usize;
+        let mut idx = 0usize;
+        // Vertices: one per name without a split entry, plus the counts of the entries.
+        let mut counted = 0u64;
+        for i in 0..nsplit {
+            let gap = r.varint_max(names.len() as u64, "split index gap")? as usize;
+            idx = if i == 0 { gap } else { idx + 1 + gap };
+            if idx >= names.len() {
+                return Err(r.invalid(format!("split names index {idx}, there are {} names", names.len())));
+            }
+            let at = r.offset();
+            let c = r.varint_max(nv as u64, "split vertex count")?;
+            if c == 1 {
+                return Err(Error::Invalid { place, offset: at, what: "splits", reason: "a split entry must not say 1".into() });
+            }
+            counted += c;
+            if counted > nv as u64 {
+                return Err(r.invalid("splits make more vertices than vertex_count"));
+            }
+            count[idx] = c as u32;
+        }
+        let total = counted + (names.len() - nsplit) as u64;
+        if total != nv as u64 {
+            return Err(st[s::SPLITS].invalid(format!("names and splits make {total} vertices, vertex_count is {nv}")));
+        }
+        let mut first = Vec::with_capacity(names.len() + 1);
+        let mut acc = 0u32;
+        for &c in &count {
+            first.push(acc);
+            acc += c;
+        }
+        first.push(acc);
+        // §5.6: corners to vertices.
+        let nexc = st[s::EXCEPTIONS].varint_max(nc as u64, "exception count")? as usize;
+        let mut exc_left = nexc;
+        let mut next_exc = if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
+        let mut prev_explicit = 0i64;
+        for c in 0..nc {
+            if pred[c] == u64::MAX {
+                prev_explicit += unzigzag(st[s::CORNERS].varint()?);
+                if prev_explicit < 0 || prev_explicit >= nv as i64 {
+                    return Err(st[s::CORNERS].invalid(format!("vertex index {prev_explicit} out of range 0..{nv}")));
+                }
+                out.indices[c] = prev_explicit as u32;
+                if next_exc == Some(c as u64) {
+                    return Err(st[s::EXCEPTIONS].invalid(format!("exception at corner {c}, which has no prediction")));
+                }
+                continue;
+            }
+            if next_exc == Some(c as u64) {
+                let r = &mut st[s::EXCEPTIONS];
+                let v = r.varint_max(nv.saturating_sub(1) as u64, "exception vertex")?;
+                if nv == 0 {
+                    return Err(r.invalid("exception in a level without vertices"));
+                }
+                out.indices[c] = v as u32;
+                pos[c] = NONE;
+                exc_left -= 1;
+                next_exc = if exc_left > 0 {
+                    let gap = r.varint_max(nc as u64, "exception position gap")?;
+                    Some(c as u64 + 1 + gap)
+                } else {
+                    None
+                };
+                continue;
+            }
+            let i = names.binary_search(&pred[c]).expect("predicted names are in the set");
+            let k2 = count[i];
+            if k2 == 0 {
+                return Err(st[s::CHOICES].invalid(format!("corner {c} names {} which has no vertex", pred[c])));
+            }
+            let choice = if k2 == 1 { 0 } else { st[s::CHOICES].varint_max(u64::from(k2 - 1), "choice")? as u32 };
+            out.indices[c] = first[i] + choice;
+        }
+        if let Some(p) = next_exc {
+            return Err(st[s::EXCEPTIONS].invalid(format!("exception position {p} is beyond the corners")));
+        }
+        if mode == Mode::Lattice {
+            let mut vc = Vec::with_capacity(nv);
+            for (i, &nm) in names.iter().enumerate() {
+                let c = lattice::corner_from_key(nm, k).expect("lattice names checked");
+                for _ in 0..count[i] {
+                    vc.push(c);
+                }
+            }
+            out.corners = Some(vc);
+            out.slots = Some(slots);
+        }
+        // Geometry context positions exclude exceptions; pass them on.
+        out.parents.shrink_to_fit();
+        return finish(k, mode, has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
+    }
+    let pos = vec![NONE; nc];
+    finish(k, mode, has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    k: u32,
+    mode: Mode,
+    has_lattice: bool,
+    grid: GridInfo,
+    st: &mut [Reader<'_>],
+    mut out: PlainLevel,
+    parent: Option<&PlainLevel>,
+    pos: &[u32],
+    parent_quads: &[([u32; 4], u8)],
+    nv: usize,
+) -> Result<PlainLevel, Error> {
+    let nf = out.parents.len();
+    if mode != Mode::Lattice && has_lattice {
+        let r = &mut st[s::RAW_LATTICE];
+        let mut slots = Vec::with_capacity(nf);
+        let mut key = 0i64;
+        for _ in 0..nf {
+            key = key.wrapping_add(unzigzag(r.varint()?));
+            let slot = u64::try_from(key)
+                .ok()
+                .and_then(|x| lattice::slot_from_key(x, k))
+                .ok_or_else(|| r.invalid(format!("slot key {key} outside level {k}")))?;
+            slots.push(slot);
+        }
+        let mut corners = Vec::with_capacity(nv);
+        key = 0;
+        for _ in 0..nv {
+            key = key.wrapping_add(unzigzag(r.varint()?));
+            let c = u64::try_from(key)
+                .ok()
+                .and_then(|x| lattice::corner_from_key(x, k))
+                .ok_or_else(|| r.invalid(format!("corner key {key} outside level {k}")))?;
+            corners.push(c);
+        }
+        out.slots = Some(slots);
+        out.corners = Some(corners);
+    }
+    let g = &mut st[s::GEOMETRY];
+    if grid.exact {
+        let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
+        out.exact = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
+        if let Some(v) = out.exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+            return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
+        }
+    } else {
+        let planes = [g.planes(nv, 4)?, g.planes(nv, 4)?, g.planes(nv, 4)?];
+        let mut q = vec![[0i64; 3]; nv];
+        let pp = parent.map(PlainLevel::as_parent);
+        let topo = Topo {
+            mode,
+            level: k,
+            bits: grid.bits,
+            offsets: &out.offsets,
+            indices: &out.indices,
+            parents: &out.parents,
+            quadrants: &out.quadrants,
+            corner_pos: pos,
+            vertex_corners: out.corners.as_deref(),
+            parent_quads: (mode == Mode::Lattice).then_some(parent_quads),
+        };
+        let geo_off = g.offset();
+        geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {
+            let mut out = [0i64; 3];
+            for a in 0..3 {
+                out[a] = pred[a] + unzigzag(planes[a][v]);
+                if out[a].abs() > GRID_LIMIT {
+                    return Err(Error::Invalid {
+                        place: Where::Payload(k),
+                        offset: geo_off,
+                        what: "geometry",
+                        reason: format!("vertex {v} decodes outside the grid range (|q| > 2^28)"),
+                    });
+                }
+            }
+            Ok(out)
+        })?;
+        out.q = q;
+    }
+    for r in st.iter() {
+        r.finish()?;
+    }
+    Ok(out)
+}

@@ -1,0 +1,156 @@
+//! Octree lattice geometry of spec §5.2: slot keys, corner keys, the canonical corner order of a
+//! slot, and the child slot under a parent quadrant.
+
+/// The deepest level whose lattice a file may name (keys then fit in 64 bits with room to spare).
+pub const MAX_LATTICE_DEPTH: u32 = 20;
+
+/// In-plane axes `(u, w)` of each side, chosen so that `u × w` points along the side's outward
+/// normal: sides `0..6` are `+X, -X, +Y, -Y, +Z, -Z`.
+const PLANE_AXES: [(usize, usize); 6] = [(1, 2), (2, 1), (2, 0), (0, 2), (0, 1), (1, 0)];
+
+/// Normal axis of a side.
+pub fn normal_axis(side: u8) -> usize {
+    usize::from(side / 2)
+}
+
+/// Whether a side faces the positive direction of its axis.
+pub fn positive(side: u8) -> bool {
+    side % 2 == 0
+}
+
+/// In-plane axes of a side.
+pub fn plane_axes(side: u8) -> (usize, usize) {
+    PLANE_AXES[usize::from(side)]
+}
+
+/// The four lattice corners of slot `(voxel, side)`, counter-clockwise seen from outside:
+/// `(u, w)` offsets `(0,0), (1,0), (1,1), (0,1)` on the face plane.
+pub fn slot_corners(voxel: [u32; 3], side: u8) -> [[u32; 3]; 4] {
+    let n = normal_axis(side);
+    let (u, w) = plane_axes(side);
+    let mut base = voxel;
+    if positive(side) {
+        base[n] += 1;
+    }
+    let mut out = [base; 4];
+    out[1][u] += 1;
+    out[2][u] += 1;
+    out[2][w] += 1;
+    out[3][w] += 1;
+    out
+}
+
+/// Slot key at depth `k`: `((z * N + y) * N + x) * 6 + side`, `N = 2^k`.
+pub fn slot_key(voxel: [u32; 3], side: u8, depth: u32) -> u64 {
+    let n = 1u64 << depth;
+    ((u64::from(voxel[2]) * n + u64::from(voxel[1])) * n + u64::from(voxel[0])) * 6 + u64::from(side)
+}
+
+/// Inverse of [`slot_key`]; `None` when the key lies outside the depth's range.
+pub fn slot_from_key(key: u64, depth: u32) -> Option<([u32; 3], u8)> {
+    let n = 1u64 << depth;
+    if key >= 6 * n * n * n {
+        return None;
+    }
+    let side = (key % 6) as u8;
+    let v = key / 6;
+    Some(([(v % n) as u32, ((v / n) % n) as u32, (v / (n * n)) as u32], side))
+}
+
+/// Corner key at depth `k`: `(z * (N + 1) + y) * (N + 1) + x`, `N = 2^k`.
+pub fn corner_key(c: [u32; 3], depth: u32) -> u64 {
+    let m = (1u64 << depth) + 1;
+    (u64::from(c[2]) * m + u64::from(c[1])) * m + u64::from(c[0])
+}
+
+/// Inverse of [`corner_key`]; `None` outside the depth's range.
+pub fn corner_from_key(key: u64, depth: u32) -> Option<[u32; 3]> {
+    let m = (1u64 << depth) + 1;
+    if key >= m * m * m {
+        return None;
+    }
+    Some([(key % m) as u32, ((key / m) % m) as u32, (key / (m * m)) as u32])
+}
+
+/// Whether a voxel lies in `[0, 2^k)^3` and a side in `0..6`.
+pub fn slot_in_range(voxel: [u32; 3], side: u8, depth: u32) -> bool {
+    side < 6 && voxel.iter().all(|&c| u64::from(c) < (1u64 << depth))
+}
+
+/// Whether a corner lies in `[0, 2^k]^3`.
+pub fn corner_in_range(c: [u32; 3], depth: u32) -> bool {
+    c.iter().all(|&x| u64::from(x) <= (1u64 << depth))
+}
+
+/// The child slot (depth `k + 1`) under quadrant corner `corner` of the parent slot `(voxel, side)`
+/// (depth `k`): `inner == false` is the child voxel touching the parent's face (`c_out`),
+/// `inner == true` the one behind it (`c_in`). `None` when `corner` is not a corner of the slot.
+pub fn child_slot(voxel: [u32; 3], side: u8, corner: [u32; 3], inner: bool) -> Option<([u32; 3], u8)> {
+    let n = normal_axis(side);
+    let (u, w) = plane_axes(side);
+    let plane = voxel[n] + u32::from(positive(side));
+    if corner[n] != plane {
+        return None;
+    }
+    let mut child = [0u32; 3];
+    for a in [u, w] {
+        let d = corner[a].wrapping_sub(voxel[a]);
+        if d > 1 {
+            return None;
+        }
+        child[a] = 2 * voxel[a] + d;
+    }
+    let outer = if positive(side) { 2 * voxel[n] + 1 } else { 2 * voxel[n] };
+    // c_out is the child touching the face; c_in the other child along the normal.
+    child[n] = if inner { outer ^ 1 } else { outer };
+    Some((child, side))
+}
+
+/// Grid coordinates of lattice corner `c` at depth `k` when the grid has `2^bits` steps across the
+/// cube: `floor(c * 2^bits / 2^k)` per axis.
+pub fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
+    c.map(|x| ((u64::from(x) << bits) >> depth) as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_round_trip_and_corners_turn_outward() {
+        for side in 0..6u8 {
+            let k = slot_key([3, 1, 2], side, 2);
+            assert_eq!(slot_from_key(k, 2), Some(([3, 1, 2], side)));
+            let c = slot_corners([0, 0, 0], side);
+            let p = |i: usize| glam_like(c[i]);
+            let e1 = sub(p(1), p(0));
+            let e2 = sub(p(3), p(0));
+            let nrm = cross(e1, e2);
+            let mut want = [0i64; 3];
+            want[normal_axis(side)] = if positive(side) { 1 } else { -1 };
+            assert_eq!(nrm, want, "side {side}");
+        }
+        assert_eq!(corner_from_key(corner_key([4, 0, 3], 2), 2), Some([4, 0, 3]));
+        assert_eq!(corner_from_key(125, 2), None);
+    }
+
+    #[test]
+    fn child_slots() {
+        // +Z face of voxel (1,1,1) at depth 1; corner (2,1,2) -> in-plane child (3,2), outer z = 3.
+        assert_eq!(child_slot([1, 1, 1], 4, [2, 1, 2], false), Some(([3, 2, 3], 4)));
+        assert_eq!(child_slot([1, 1, 1], 4, [2, 1, 2], true), Some(([3, 2, 2], 4)));
+        assert_eq!(child_slot([1, 1, 1], 5, [1, 1, 1], false), Some(([2, 2, 2], 5)));
+        assert_eq!(child_slot([1, 1, 1], 5, [1, 1, 1], true), Some(([2, 2, 3], 5)));
+        assert_eq!(child_slot([1, 1, 1], 4, [2, 1, 1], false), None);
+    }
+
+    fn glam_like(c: [u32; 3]) -> [i64; 3] {
+        c.map(i64::from)
+    }
+    fn sub(a: [i64; 3], b: [i64; 3]) -> [i64; 3] {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+    fn cross(a: [i64; 3], b: [i64; 3]) -> [i64; 3] {
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    }
+}

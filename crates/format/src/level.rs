@@ -1,0 +1,379 @@
+//! Definitions shared by the level encoder and decoder (spec §4-§6): the level block header,
+//! stream numbering, rotations, the canonical-subdivision names, and the geometry predictor.
+//!
+//! The geometry pass ([`geometry_pass`]) is one function used by both directions, so that encoder
+//! and decoder cannot disagree on a prediction.
+
+use crate::lattice;
+
+/// Level block header size in bytes (spec §4.1).
+pub const BLOCK_HEADER_SIZE: usize = 64;
+/// Number of streams in every level block.
+pub const STREAM_COUNT: usize = 12;
+
+/// Stream names, in block order (spec §4.2).
+pub const STREAM_NAMES: [&str; STREAM_COUNT] = [
+    "child_masks",
+    "depths",
+    "rotations",
+    "created_keys",
+    "face_sizes",
+    "corners",
+    "extra_names",
+    "splits",
+    "exceptions",
+    "choices",
+    "raw_lattice",
+    "geometry",
+];
+
+/// Stream indices.
+pub mod s {
+    pub const CHILD_MASKS: usize = 0;
+    pub const DEPTHS: usize = 1;
+    pub const ROTATIONS: usize = 2;
+    pub const CREATED_KEYS: usize = 3;
+    pub const FACE_SIZES: usize = 4;
+    pub const CORNERS: usize = 5;
+    pub const EXTRA_NAMES: usize = 6;
+    pub const SPLITS: usize = 7;
+    pub const EXCEPTIONS: usize = 8;
+    pub const CHOICES: usize = 9;
+    pub const RAW_LATTICE: usize = 10;
+    pub const GEOMETRY: usize = 11;
+}
+
+/// Level coding modes (spec §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Level 0: a polygon mesh coded on its own.
+    Base = 0,
+    /// A refinement named by canonical-subdivision slots.
+    Generic = 1,
+    /// A refinement named by octree lattice points.
+    Lattice = 2,
+}
+
+/// Block flag: the level carries lattice coordinates.
+pub const BLOCK_FLAG_LATTICE: u8 = 1;
+
+/// "No parent" in plain parent arrays.
+pub const NO_PARENT: u32 = u32::MAX;
+/// "No prediction" in per-corner arrays.
+pub const NONE: u32 = u32::MAX;
+
+/// The largest grid coordinate magnitude (spec §3.5).
+pub const GRID_LIMIT: i64 = 1 << 28;
+
+/// Canonical position of face corner `k` under rotation byte `rot` (spec §5.3).
+pub fn rotated(rot: u8, k: usize) -> usize {
+    let r = usize::from(rot & 3);
+    if rot & 4 == 0 { (r + k) % 4 } else { (r + 4 - k) % 4 }
+}
+
+/// `a / b` rounded to the nearest integer, halves upwards (`b > 0`).
+pub fn round_div(a: i64, b: i64) -> i64 {
+    (2 * a + b).div_euclid(2 * b)
+}
+
+/// Edge numbering of a polygon mesh in order of first appearance (spec §5.4): for every face
+/// corner, the id of the edge from it to the next corner, and the number of edges.
+pub fn number_edges(offsets: &[u32], indices: &[u32]) -> (Vec<u32>, u32) {
+    let mut ids = std::collections::HashMap::with_capacity(indices.len() / 2);
+    let mut edge_of_corner = vec![0u32; indices.len()];
+    let mut next = 0u32;
+    for w in offsets.windows(2) {
+        let (a, b) = (w[0] as usize, w[1] as usize);
+        let n = b - a;
+        for i in 0..n {
+            let u = indices[a + i];
+            let v = indices[a + (i + 1) % n];
+            let key = (u.min(v), u.max(v));
+            let id = *ids.entry(key).or_insert_with(|| {
+                next += 1;
+                next - 1
+            });
+            edge_of_corner[a + i] = id;
+        }
+    }
+    (edge_of_corner, next)
+}
+
+/// The parent level, as the refinement coders see it.
+pub struct Parent<'a> {
+    /// Face offsets (CSR).
+    pub offsets: &'a [u32],
+    /// Face corner indices.
+    pub indices: &'a [u32],
+    /// Grid coordinates of the parent's vertices (empty for exact files).
+    pub q: &'a [[i64; 3]],
+    /// Lattice slots of the parent's faces, if any.
+    pub slots: Option<&'a [([u32; 3], u8)]>,
+    /// Lattice corners of the parent's vertices, if any.
+    pub corners: Option<&'a [[u32; 3]]>,
+}
+
+impl Parent<'_> {
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.offsets.len() - 1
+    }
+    /// Corners of face `f`.
+    pub fn face(&self, f: usize) -> &[u32] {
+        &self.indices[self.offsets[f] as usize..self.offsets[f + 1] as usize]
+    }
+
+    /// For lattice refinement (spec §5.3): per parent face, its orientation byte (the first
+    /// rotation byte, `0..8`, matching the most corners' lattice points to the slot's canonical
+    /// corners) and its vertices in canonical corner order. `Err(f)`: face `f` is not a quad, or
+    /// the level has no lattice coordinates.
+    pub fn canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
+        let (Some(slots), Some(corners)) = (self.slots, self.corners) else { return Err(0) };
+        let mut out = Vec::with_capacity(self.face_count());
+        for f in 0..self.face_count() {
+            let face = self.face(f);
+            if face.len() != 4 {
+                return Err(f);
+            }
+            let (v, d) = slots[f];
+            let sc = lattice::slot_corners(v, d);
+            let rot = best_rotation(|r, k| corners.get(face[k] as usize) == Some(&sc[rotated(r, k)]));
+            let mut quad = [0u32; 4];
+            for (k, &vi) in face.iter().enumerate() {
+                quad[rotated(rot, k)] = vi;
+            }
+            out.push((quad, rot));
+        }
+        Ok(out)
+    }
+}
+
+/// The first rotation byte (`0..8`) under which the most of the four corners match.
+pub fn best_rotation(mut matches: impl FnMut(u8, usize) -> bool) -> u8 {
+    let mut best = (0usize, 0u8);
+    for rot in 0..8u8 {
+        let m = (0..4).filter(|&i| matches(rot, i)).count();
+        if m > best.0 {
+            best = (m, rot);
+        }
+        if m == 4 {
+            break;
+        }
+    }
+    best.1
+}
+
+/// Where a refinement level's faces and corners come from, as the geometry pass needs it.
+pub struct Topo<'a> {
+    /// Coding mode.
+    pub mode: Mode,
+    /// Level index `k`.
+    pub level: u32,
+    /// Grid bits of a tied grid (lattice mode only).
+    pub bits: u32,
+    /// Face offsets of the level.
+    pub offsets: &'a [u32],
+    /// Face corner indices of the level.
+    pub indices: &'a [u32],
+    /// Per face: parent face or [`NO_PARENT`].
+    pub parents: &'a [u32],
+    /// Per face: quadrant (meaningful for subfaces).
+    pub quadrants: &'a [u8],
+    /// Per corner: the canonical position it was predicted at (`0..4`), or [`NONE`] when it has no
+    /// prediction or is an exception.
+    pub corner_pos: &'a [u32],
+    /// Per vertex: its lattice corner (lattice mode).
+    pub vertex_corners: Option<&'a [[u32; 3]]>,
+    /// Lattice mode: parent slots and canonical quads.
+    pub parent_quads: Option<&'a [([u32; 4], u8)]>,
+}
+
+/// Runs the geometry predictor of spec §6 over a level in the normative order and calls
+/// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates (the
+/// decoder adds the residual, the encoder records `q - prediction` and returns `q`).
+pub fn geometry_pass<E>(
+    topo: &Topo<'_>,
+    parent: Option<&Parent<'_>>,
+    q: &mut [[i64; 3]],
+    mut step: impl FnMut(usize, [i64; 3]) -> Result<[i64; 3], E>,
+) -> Result<(), E> {
+    let nv = q.len();
+    // Context: the first predicted, non-exception subface corner of every vertex.
+    let mut ctx = vec![NONE; nv];
+    if parent.is_some() {
+        for f in 0..topo.parents.len() {
+            if topo.parents[f] == NO_PARENT {
+                continue;
+            }
+            for c in topo.offsets[f] as usize..topo.offsets[f + 1] as usize {
+                let v = topo.indices[c] as usize;
+                if topo.corner_pos[c] != NONE && ctx[v] == NONE {
+                    ctx[v] = c as u32;
+                }
+            }
+        }
+    }
+    let mut face_of_corner = Vec::new();
+    if let Some(p) = parent {
+        face_of_corner = vec![0u32; topo.indices.len()];
+        for f in 0..topo.parents.len() {
+            for c in topo.offsets[f]..topo.offsets[f + 1] {
+                face_of_corner[c as usize] = f as u32;
+            }
+        }
+        // Pass A: vertices with a parent context, in index order.
+        for v in 0..nv {
+            let c = ctx[v];
+            if c == NONE {
+                continue;
+            }
+            let f = face_of_corner[c as usize] as usize;
+            let pf = topo.parents[f] as usize;
+            let pred = match topo.mode {
+                Mode::Lattice => {
+                    let quads = topo.parent_quads.expect("lattice mode has parent quads");
+                    let slots = p.slots.expect("lattice parent");
+                    let corners = topo.vertex_corners.expect("lattice level");
+                    lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
+                }
+                _ => {
+                    let face = p.face(pf);
+                    let n = face.len();
+                    let qd = usize::from(topo.quadrants[f]);
+                    let at = |i: usize| p.q[face[i % n] as usize];
+                    let pos = topo.corner_pos[c as usize];
+                    let mut sum = [0i64; 3];
+                    let mut w = 0i64;
+                    let mut add = |x: [i64; 3]| {
+                        for a in 0..3 {
+                            sum[a] += x[a];
+                        }
+                        w += 1;
+                    };
+                    match pos {
+                        0 => add(at(qd)),
+                        1 => {
+                            add(at(qd));
+                            add(at(qd + 1));
+                        }
+                        2 => (0..n).for_each(|i| add(at(i))),
+                        _ => {
+                            add(at(qd + n - 1));
+                            add(at(qd));
+                        }
+                    }
+                    sum.map(|s| round_div(s, w))
+                }
+            };
+            q[v] = step(v, clamp(pred))?;
+        }
+    }
+    if ctx.iter().all(|&c| c != NONE) {
+        return Ok(());
+    }
+    // Pass B: the other vertices in index order, from already decoded neighbours.
+    let mut start = vec![0u32; nv + 1];
+    for &v in topo.indices {
+        start[v as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; topo.indices.len()];
+    if face_of_corner.is_empty() {
+        face_of_corner = vec![0u32; topo.indices.len()];
+        for f in 0..topo.offsets.len() - 1 {
+            for c in topo.offsets[f]..topo.offsets[f + 1] {
+                face_of_corner[c as usize] = f as u32;
+            }
+        }
+    }
+    for (c, &v) in topo.indices.iter().enumerate() {
+        inc[fill[v as usize] as usize] = c as u32;
+        fill[v as usize] += 1;
+    }
+    let lattice_mode = topo.mode == Mode::Lattice;
+    let lp = |v: usize| -> [i64; 3] {
+        match topo.vertex_corners {
+            Some(vc) if lattice_mode => lattice::lattice_point(vc[v], topo.level, topo.bits),
+            _ => [0; 3],
+        }
+    };
+    for v in 0..nv {
+        if ctx[v] != NONE {
+            continue;
+        }
+        let mut sum = [0i64; 3];
+        let mut count = 0i64;
+        for &c in &inc[start[v] as usize..start[v + 1] as usize] {
+            let f = face_of_corner[c as usize] as usize;
+            let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
+            let n = b - a;
+            let i = c as usize - a;
+            for u in [topo.indices[a + (i + n - 1) % n], topo.indices[a + (i + 1) % n]] {
+                let u = u as usize;
+                if ctx[u] != NONE || u < v {
+                    let l = lp(u);
+                    for k in 0..3 {
+                        sum[k] += q[u][k] - l[k];
+                    }
+                    count += 1;
+                }
+            }
+        }
+        let l = lp(v);
+        let pred = if count > 0 {
+            [l[0] + round_div(sum[0], count), l[1] + round_div(sum[1], count), l[2] + round_div(sum[2], count)]
+        } else if lattice_mode {
+            l
+        } else if v > 0 {
+            q[v - 1]
+        } else {
+            [0; 3]
+        };
+        q[v] = step(v, clamp(pred))?;
+    }
+    Ok(())
+}
+
+fn clamp(p: [i64; 3]) -> [i64; 3] {
+    p.map(|x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
+}
+
+/// The lattice predictor of spec §6.3: the lattice point moved along the parent face's normal to
+/// the parent surface's bilinear point.
+pub fn lattice_prediction(
+    pq: &[[i64; 3]],
+    quad: [u32; 4],
+    slot: ([u32; 3], u8),
+    corner: [u32; 3],
+    level: u32,
+    bits: u32,
+) -> [i64; 3] {
+    let (u, w) = lattice::plane_axes(slot.1);
+    let c0 = lattice::slot_corners(slot.0, slot.1)[0];
+    let a = i64::from(corner[u]) - 2 * i64::from(c0[u]);
+    let b = i64::from(corner[w]) - 2 * i64::from(c0[w]);
+    let (a, b) = (a.clamp(0, 2), b.clamp(0, 2));
+    let p = quad.map(|i| pq[i as usize]);
+    let wts = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
+    let mut s = [0i64; 3];
+    for i in 0..4 {
+        for k in 0..3 {
+            s[k] += wts[i] * p[i][k];
+        }
+    }
+    let l = lattice::lattice_point(corner, level, bits);
+    let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
+    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let nf = n.map(|x| x as f64);
+    let d = [(s[0] - 4 * l[0]) as f64, (s[1] - 4 * l[1]) as f64, (s[2] - 4 * l[2]) as f64];
+    let nn = nf[0] * nf[0] + nf[1] * nf[1] + nf[2] * nf[2];
+    if nn == 0.0 {
+        return s.map(|x| round_div(x, 4));
+    }
+    let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
+    [0, 1, 2].map(|k| l[k].saturating_add((nf[k] * t).round() as i64))
+}

@@ -1,0 +1,623 @@
+//! The MRQ codec: octowrap's file format for multiresolution quad-mesh hierarchies, as specified in
+//! `spec/FORMAT.md` (the spec is normative; this crate mirrors it and uses its field names).
+//!
+//! An MRQ file holds a [`Hierarchy`] coarse to fine. Level 0 is any polygon mesh; every finer level
+//! is coded against the decoded level above it: the canonical subdivision of the parent (spec §5),
+//! topology edits (children removed, faces created, vertices split or joined), and vertex residuals
+//! on one quantization grid against a prediction from the decoded parent (spec §6). Every decoded
+//! vertex lies within half a grid step of the encoder's input on every axis, at every level.
+//!
+//! The container (spec §3) puts a header, a level table (offsets, sizes, XXH3 checksums) and
+//! metadata first, so a reader holding the first bytes knows where every level lies; each level is
+//! one zstd frame. [`decode`] reads levels `0..=k` from any [`Read`] and stops there.
+//!
+//! ```
+//! use octowrap_format::{decode, encode, DecodeOptions, EncodeOptions};
+//! use octowrap_mesh::{DVec3, FaceList, Hierarchy, Mesh};
+//!
+//! let mut mesh = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+//! mesh.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+//! let bytes = encode(&Hierarchy::single(mesh), &EncodeOptions::default()).unwrap();
+//! let file = decode(&bytes[..], &DecodeOptions::default()).unwrap();
+//! assert_eq!(file.hierarchy.levels[0].mesh.faces.face(0), &[0, 1, 2, 3]);
+//! ```
+//!
+//! Decoding never panics on hostile input: every failure is an [`Error`] naming the region and
+//! byte offset, and every allocation is checked against [`Limits`] first. Encoding is
+//! deterministic: the same hierarchy and options give the same bytes.
+//!
+//! Face and vertex order: level 0 keeps the input order; finer levels are stored in the canonical
+//! order of spec §5.7 (subfaces by parent and quadrant, then created faces; vertices by name). Use
+//! [`canonical`] to put a hierarchy in that order (positions unchanged), for comparisons.
+
+mod bytes;
+mod container;
+mod decode;
+mod encode;
+mod error;
+mod lattice;
+mod level;
+pub mod synthetic;
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+use octowrap_mesh::{Aabb, DVec3, FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, Quadrant};
+use xxhash_rust::xxh3::xxh3_64;
+
+pub use container::Metadata;
+pub use error::{EncodeError, Error, Where};
+
+use container::{ENTRY_SIZE, FLAG_CUBE, FLAG_EXACT, FLAG_TIED, FileHeader, HEADER_SIZE, LevelEntry, MAGIC, Preamble};
+use decode::{GridInfo, PlainLevel};
+use encode::InputLevel;
+use level::NO_PARENT;
+
+/// The format version this crate writes and reads (spec §1).
+pub const FORMAT_VERSION: u16 = 1;
+/// The finest grid a file may use: `2^28` steps across the cube.
+pub const MAX_GRID_BITS: u32 = 28;
+
+/// How vertex positions are stored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Quantization {
+    /// Exactly, as IEEE-754 binary64 (lossless, large).
+    Exact,
+    /// On a grid of `2^bits` steps across the octree cube (or across the bounding box's longest
+    /// edge when the hierarchy has no cube). `1..=28`.
+    Bits(u32),
+    /// On a grid with this step in world units, anchored at the cube's (or bounding box's) minimum.
+    Step(f64),
+}
+
+/// Encoder options. Defaults: 16-bit grid, zstd level 19, empty metadata.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct EncodeOptions {
+    /// How positions are stored (default `Bits(16)`).
+    pub quantization: Quantization,
+    /// zstd compression level, 1..=22 (default 19).
+    pub zstd_level: i32,
+    /// Units, source and further key-value pairs to record.
+    pub metadata: Metadata,
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        Self { quantization: Quantization::Bits(16), zstd_level: 19, metadata: Metadata::default() }
+    }
+}
+
+impl EncodeOptions {
+    /// Options with the given quantization and the other defaults.
+    pub fn with_quantization(quantization: Quantization) -> Self {
+        Self { quantization, ..Self::default() }
+    }
+}
+
+/// Upper bounds a decoder checks before allocating. Defaults suit meshes of up to ~250 M vertices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Limits {
+    /// Most levels in a file (default 32).
+    pub max_levels: u32,
+    /// Largest stored or decompressed level in bytes (default 4 GiB).
+    pub max_level_bytes: u64,
+    /// Most vertices per level (default 2^28).
+    pub max_vertices: u32,
+    /// Most faces per level (default 2^28).
+    pub max_faces: u32,
+    /// Most face corners per level (default 2^30).
+    pub max_corners: u32,
+    /// Largest metadata block in bytes (default 16 MiB).
+    pub max_metadata_bytes: u32,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            max_levels: 32,
+            max_level_bytes: 4 << 30,
+            max_vertices: 1 << 28,
+            max_faces: 1 << 28,
+            max_corners: 1 << 30,
+            max_metadata_bytes: 16 << 20,
+        }
+    }
+}
+
+impl Limits {
+    /// Small limits for untrusted input in tests and fuzzing (64 MiB levels, 1 M elements).
+    pub fn strict() -> Self {
+        Self {
+            max_levels: 24,
+            max_level_bytes: 64 << 20,
+            max_vertices: 1 << 20,
+            max_faces: 1 << 20,
+            max_corners: 1 << 22,
+            max_metadata_bytes: 1 << 20,
+        }
+    }
+}
+
+/// Decoder options.
+#[derive(Clone, Copy, Debug, Default)]
+#[non_exhaustive]
+pub struct DecodeOptions {
+    /// Limits checked before allocating.
+    pub limits: Limits,
+    /// Decode levels `0..=k` only (`None`: all). The rest of the input is not read.
+    pub max_level: Option<u32>,
+}
+
+impl DecodeOptions {
+    /// Options decoding levels `0..=k` only.
+    pub fn up_to(k: u32) -> Self {
+        Self { max_level: Some(k), ..Self::default() }
+    }
+}
+
+/// What the preamble of a file says about one level.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct LevelInfo {
+    /// File offset of the stored bytes.
+    pub offset: u64,
+    /// Stored (zstd) size in bytes.
+    pub stored_size: u64,
+    /// Decompressed size in bytes.
+    pub raw_size: u64,
+    /// XXH3-64 of the stored bytes.
+    pub checksum: u64,
+    /// Vertices.
+    pub vertex_count: u32,
+    /// Faces.
+    pub face_count: u32,
+    /// Face corners.
+    pub corner_count: u32,
+}
+
+/// What the preamble of a file says.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FileInfo {
+    /// Format version.
+    pub version: u16,
+    /// `None` for exact files; else the grid.
+    pub grid: Option<GridDescription>,
+    /// The octree cube, when recorded.
+    pub cube: Option<([f64; 3], [f64; 3])>,
+    /// Metadata.
+    pub metadata: MetadataInfo,
+    /// One entry per level.
+    pub levels: Vec<LevelInfo>,
+    /// Bytes before the first level (header, table, metadata, checksum).
+    pub preamble_size: u64,
+}
+
+/// The quantization grid of a file.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GridDescription {
+    /// World position of grid point (0, 0, 0).
+    pub origin: [f64; 3],
+    /// Grid step in world units.
+    pub step: f64,
+    /// Bits (steps across the cube = 2^bits when tied).
+    pub bits: u32,
+    /// Whether the grid is tied to the cube.
+    pub tied_to_cube: bool,
+}
+
+/// Metadata, for reports.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MetadataInfo {
+    /// Length unit.
+    pub units: String,
+    /// Source.
+    pub source: String,
+    /// Writer.
+    pub generator: String,
+    /// Further pairs.
+    pub entries: Vec<(String, String)>,
+}
+
+impl FileInfo {
+    fn from_preamble(p: &Preamble) -> Self {
+        let h = &p.header;
+        Self {
+            version: h.version,
+            grid: (h.flags & FLAG_EXACT == 0).then_some(GridDescription {
+                origin: h.origin,
+                step: h.step,
+                bits: h.grid_bits,
+                tied_to_cube: h.flags & FLAG_TIED != 0,
+            }),
+            cube: (h.flags & FLAG_CUBE != 0).then_some((h.cube_min, h.cube_max)),
+            metadata: MetadataInfo {
+                units: p.metadata.units.clone(),
+                source: p.metadata.source.clone(),
+                generator: p.metadata.generator.clone(),
+                entries: p.metadata.entries.clone(),
+            },
+            levels: p
+                .levels
+                .iter()
+                .map(|e| LevelInfo {
+                    offset: e.offset,
+                    stored_size: e.stored_size,
+                    raw_size: e.raw_size,
+                    checksum: e.checksum,
+                    vertex_count: e.vertex_count,
+                    face_count: e.face_count,
+                    corner_count: e.corner_count,
+                })
+                .collect(),
+            preamble_size: p.size(),
+        }
+    }
+}
+
+/// A decoded file: its description and the levels asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MrqFile {
+    /// The preamble's description of the whole file.
+    pub info: FileInfo,
+    /// The decoded levels (`0..=max_level`).
+    pub hierarchy: Hierarchy,
+}
+
+/// Per-level sizes, for reports and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LevelStats {
+    /// Level coding mode (0 base, 1 generic, 2 lattice).
+    pub mode: u8,
+    /// Stored bytes of the level (one zstd frame).
+    pub stored: usize,
+    /// Bytes of the topology streams, zstd-compressed on their own.
+    pub topology: usize,
+    /// Bytes of the geometry stream, zstd-compressed on its own.
+    pub geometry: usize,
+}
+
+struct Grid {
+    exact: bool,
+    tied: bool,
+    bits: u32,
+    origin: DVec3,
+    step: f64,
+}
+
+fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> {
+    let exact = Grid { exact: true, tied: false, bits: 0, origin: DVec3::ZERO, step: 0.0 };
+    let bounds = || {
+        let mut b = Aabb::EMPTY;
+        for l in &h.levels {
+            for p in &l.mesh.vertices.positions {
+                b.grow(*p);
+            }
+        }
+        if b.is_empty() { Aabb { min: DVec3::ZERO, max: DVec3::ZERO } } else { b }
+    };
+    match q {
+        Quantization::Exact => Ok(exact),
+        Quantization::Bits(bits) => {
+            if !(1..=MAX_GRID_BITS).contains(&bits) {
+                return Err(EncodeError::Options(format!("quantization bits must be 1..={MAX_GRID_BITS}, got {bits}")));
+            }
+            if let Some(c) = h.cube.filter(|c| !c.is_empty() && c.size().max_element() > 0.0) {
+                let edge = c.size().max_element();
+                Ok(Grid { exact: false, tied: true, bits, origin: c.min, step: edge / f64::from(1u32 << bits) })
+            } else {
+                let b = bounds();
+                let ext = b.size().max_element();
+                let step = if ext > 0.0 { ext / f64::from((1u32 << bits) - 1).max(1.0) } else { 1.0 };
+                Ok(Grid { exact: false, tied: false, bits, origin: b.min, step })
+            }
+        }
+        Quantization::Step(step) => {
+            if !(step.is_finite() && step > 0.0) {
+                return Err(EncodeError::Options(format!("the step must be positive and finite, got {step}")));
+            }
+            let origin = h.cube.filter(|c| !c.is_empty()).map_or_else(|| bounds().min, |c| c.min);
+            Ok(Grid { exact: false, tied: false, bits: 0, origin, step })
+        }
+    }
+}
+
+/// Encodes `h` into a byte vector. See [`encode_to`].
+pub fn encode(h: &Hierarchy, opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
+    Ok(encode_inner(h, opts)?.0)
+}
+
+/// Encodes `h` and reports per-level sizes (for benchmarks).
+pub fn encode_with_stats(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    encode_inner(h, opts)
+}
+
+/// Encodes `h` to any writer. The hierarchy's links are checked first; positions must be finite.
+/// Level `k + 1` is stored in the canonical order of spec §5.7.
+pub fn encode_to(w: &mut impl Write, h: &Hierarchy, opts: &EncodeOptions) -> Result<(), EncodeError> {
+    w.write_all(&encode(h, opts)?)?;
+    Ok(())
+}
+
+fn encode_levels(
+    h: &Hierarchy,
+    opts: &EncodeOptions,
+    mut each: impl FnMut(&encode::Encoded) -> Result<(), EncodeError>,
+) -> Result<Grid, EncodeError> {
+    if h.levels.is_empty() {
+        return Err(EncodeError::Empty);
+    }
+    if h.levels.len() > 32 {
+        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
+    }
+    h.check_links()?;
+    let grid = choose_grid(h, opts.quantization)?;
+    let mut parent: Option<PlainLevel> = None;
+    let mut parent_face_new: Vec<u32> = Vec::new();
+    for (k, l) in h.levels.iter().enumerate() {
+        let mesh = &l.mesh;
+        mesh.check_indices().map_err(|source| EncodeError::Faces { level: k, source })?;
+        if mesh.vertices.len() > u32::MAX as usize / 2 || mesh.faces.corner_count() > u32::MAX as usize / 2 {
+            return Err(EncodeError::Unsupported { level: k, reason: "too many vertices or corners".into() });
+        }
+        let mut q = Vec::new();
+        let mut exact = Vec::new();
+        for (v, p) in mesh.vertices.positions.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(EncodeError::NonFinite { level: k, vertex: v });
+            }
+            if grid.exact {
+                exact.push(p.to_array());
+            } else {
+                let g = ((*p - grid.origin) / grid.step).round();
+                if g.abs().max_element() > level::GRID_LIMIT as f64 {
+                    return Err(EncodeError::OutOfGrid { level: k, vertex: v });
+                }
+                q.push([g.x as i64, g.y as i64, g.z as i64]);
+            }
+        }
+        let (parents, quadrants) = l
+            .origins
+            .iter()
+            .map(|o| match *o {
+                FaceOrigin::Subface { parent, quadrant } => (parent_face_new[parent as usize], quadrant.0),
+                FaceOrigin::Created => (NO_PARENT, 0),
+            })
+            .unzip();
+        let input = InputLevel {
+            offsets: mesh.faces.offsets(),
+            indices: mesh.faces.indices(),
+            parents,
+            quadrants,
+            slots: l.lattice.as_ref().map(|x| &x.face_slots[..]),
+            corners: l.lattice.as_ref().map(|x| &x.vertex_corners[..]),
+            q,
+            exact,
+        };
+        let enc = encode::encode_level(k as u32, &input, parent.as_ref(), grid.exact, grid.tied, grid.bits)?;
+        each(&enc)?;
+        parent_face_new = enc.face_new;
+        parent = Some(enc.level);
+    }
+    Ok(grid)
+}
+
+fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    let mut blocks = Vec::with_capacity(h.levels.len());
+    let mut stats = Vec::with_capacity(h.levels.len());
+    let grid = encode_levels(h, opts, |enc| {
+        let stored = zstd::bulk::compress(&enc.payload, opts.zstd_level)?;
+        let geo_start = enc.payload.len() - enc.split_bytes.1;
+        let topology = zstd::bulk::compress(&enc.payload[..geo_start], opts.zstd_level)?.len();
+        let geometry = zstd::bulk::compress(&enc.payload[geo_start..], opts.zstd_level)?.len();
+        stats.push(LevelStats { mode: enc.payload[0], stored: stored.len(), topology, geometry });
+        let lv = &enc.level;
+        let counts = (lv.q.len().max(lv.exact.len()) as u32, lv.parents.len() as u32, lv.indices.len() as u32);
+        blocks.push((enc.payload.len() as u64, stored, counts));
+        Ok(())
+    })?;
+    let metadata_bytes = container::to_bytes(&opts.metadata);
+    let mut flags = 0;
+    if h.cube.is_some() {
+        flags |= FLAG_CUBE;
+    }
+    if grid.exact {
+        flags |= FLAG_EXACT;
+    }
+    if grid.tied {
+        flags |= FLAG_TIED;
+    }
+    let (cube_min, cube_max) = h.cube.map_or(([0.0; 3], [0.0; 3]), |c| (c.min.to_array(), c.max.to_array()));
+    let header = FileHeader {
+        magic: MAGIC,
+        version: FORMAT_VERSION,
+        header_size: HEADER_SIZE as u16,
+        flags,
+        level_count: blocks.len() as u32,
+        grid_bits: grid.bits,
+        origin: grid.origin.to_array(),
+        step: grid.step,
+        cube_min,
+        cube_max,
+        metadata_size: u32::try_from(metadata_bytes.len())
+            .map_err(|_| EncodeError::Options("metadata larger than 4 GiB".into()))?,
+        reserved: 0,
+    };
+    let mut offset = (HEADER_SIZE + ENTRY_SIZE * blocks.len() + metadata_bytes.len() + 8) as u64;
+    let mut levels = Vec::with_capacity(blocks.len());
+    for (raw, stored, (nv, nf, nc)) in &blocks {
+        levels.push(LevelEntry {
+            offset,
+            stored_size: stored.len() as u64,
+            raw_size: *raw,
+            checksum: xxh3_64(stored),
+            vertex_count: *nv,
+            face_count: *nf,
+            corner_count: *nc,
+            reserved: 0,
+        });
+        offset += stored.len() as u64;
+    }
+    let pre = Preamble { header, levels, metadata: opts.metadata.clone() };
+    let mut out = pre.to_bytes();
+    for (_, stored, _) in blocks {
+        out.extend(stored);
+    }
+    Ok((out, stats))
+}
+
+/// Reads `n` bytes without trusting `n` for the allocation: the buffer grows with the input.
+fn read_vec(r: &mut impl Read, n: u64, offset: u64, what: &str) -> Result<Vec<u8>, Error> {
+    let mut v = Vec::with_capacity(n.min(1 << 20) as usize);
+    r.take(n).read_to_end(&mut v)?;
+    if (v.len() as u64) < n {
+        return Err(Error::Truncated { offset, what: what.to_owned(), needed: n, got: v.len() as u64 });
+    }
+    Ok(v)
+}
+
+fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> {
+    let mut head = [0u8; HEADER_SIZE];
+    // A short file that does not even start with the magic is not an MRQ file.
+    let mut got = 0;
+    while got < HEADER_SIZE {
+        match r.read(&mut head[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let m = got.min(8);
+    if head[..m] != MAGIC[..m] {
+        return Err(Error::BadMagic { found: head[..m].to_vec() });
+    }
+    if got < HEADER_SIZE {
+        return Err(Error::Truncated { offset: 0, what: "file header".into(), needed: HEADER_SIZE as u64, got: got as u64 });
+    }
+    let header = container::parse_header(&head, limits)?;
+    let rest_len = ENTRY_SIZE as u64 * u64::from(header.level_count) + u64::from(header.metadata_size) + 8;
+    let rest = read_vec(r, rest_len, HEADER_SIZE as u64, "level table, metadata and preamble checksum")?;
+    container::parse_rest(header, &head, &rest, limits)
+}
+
+/// Reads only the preamble: levels, sizes, counts, quantization, metadata.
+pub fn read_info(mut r: impl Read, limits: &Limits) -> Result<FileInfo, Error> {
+    Ok(FileInfo::from_preamble(&read_preamble(&mut r, limits)?))
+}
+
+/// Decodes levels `0..=opts.max_level` (all by default) from `r`, reading the input in order and
+/// nothing beyond the last level asked for.
+pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> {
+    let pre = read_preamble(&mut r, &opts.limits)?;
+    let info = FileInfo::from_preamble(&pre);
+    let n = pre.levels.len() as u32;
+    let last = match opts.max_level {
+        Some(k) if k >= n => return Err(Error::NoSuchLevel { requested: k, available: n }),
+        Some(k) => k,
+        None => n - 1,
+    };
+    let h = &pre.header;
+    let gi = GridInfo { exact: h.flags & FLAG_EXACT != 0, tied: h.flags & FLAG_TIED != 0, bits: h.grid_bits };
+    let origin = DVec3::from_array(h.origin);
+    let mut out = Hierarchy {
+        levels: Vec::new(),
+        cube: (h.flags & FLAG_CUBE != 0)
+            .then(|| Aabb { min: DVec3::from_array(h.cube_min), max: DVec3::from_array(h.cube_max) }),
+    };
+    let mut parent: Option<PlainLevel> = None;
+    for k in 0..=last {
+        let e = &pre.levels[k as usize];
+        let stored = read_vec(&mut r, e.stored_size, e.offset, &format!("level {k}"))?;
+        let computed = xxh3_64(&stored);
+        if computed != e.checksum {
+            return Err(Error::ChecksumMismatch { place: Where::Level(k), offset: e.offset, stored: e.checksum, computed });
+        }
+        let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
+        match zstd::zstd_safe::get_frame_content_size(&stored) {
+            Ok(Some(size)) if size == e.raw_size => {}
+            Ok(Some(size)) => return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size))),
+            Ok(None) => return Err(zerr("the frame does not state its content size".into())),
+            Err(_) => return Err(zerr("not a zstd frame".into())),
+        }
+        let payload = zstd::bulk::decompress(&stored, e.raw_size as usize).map_err(|x| zerr(x.to_string()))?;
+        if payload.len() as u64 != e.raw_size {
+            return Err(zerr(format!("decompressed to {} bytes, the level table says {}", payload.len(), e.raw_size)));
+        }
+        let lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi)?;
+        out.levels.push(to_level(&lv, origin, h.step));
+        parent = Some(lv);
+    }
+    Ok(MrqFile { info, hierarchy: out })
+}
+
+/// Decodes a whole file held in memory, with [`Limits::strict`]-free default limits.
+pub fn decode_bytes(bytes: &[u8], opts: &DecodeOptions) -> Result<MrqFile, Error> {
+    decode(bytes, opts)
+}
+
+fn to_level(lv: &PlainLevel, origin: DVec3, step: f64) -> Level {
+    let positions: Vec<DVec3> = if lv.exact.is_empty() && !lv.q.is_empty() {
+        lv.q.iter().map(|q| origin + DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) * step).collect()
+    } else {
+        lv.exact.iter().map(|p| DVec3::from_array(*p)).collect()
+    };
+    let mut faces = FaceList::with_capacity(lv.parents.len(), lv.indices.len());
+    for w in lv.offsets.windows(2) {
+        faces.push(&lv.indices[w[0] as usize..w[1] as usize]);
+    }
+    let origins = lv
+        .parents
+        .iter()
+        .zip(&lv.quadrants)
+        .map(|(&p, &q)| {
+            if p == NO_PARENT { FaceOrigin::Created } else { FaceOrigin::Subface { parent: p, quadrant: Quadrant(q) } }
+        })
+        .collect();
+    let lattice = match (&lv.slots, &lv.corners) {
+        (Some(s), Some(c)) => Some(LevelLattice { face_slots: s.clone(), vertex_corners: c.clone() }),
+        _ => None,
+    };
+    Level { mesh: Mesh { vertices: octowrap_mesh::PointCloud::from_positions(positions), faces }, origins, lattice }
+}
+
+/// `h` in the canonical order of spec §5.7 — the order [`decode`] returns when `h` is encoded
+/// with `opts` — with the input positions (not quantized). Encoding the result with `opts` gives
+/// the same bytes as encoding `h`.
+pub fn canonical(h: &Hierarchy, opts: &EncodeOptions) -> Result<Hierarchy, EncodeError> {
+    let mut out = Hierarchy { levels: Vec::with_capacity(h.levels.len()), cube: h.cube };
+    encode_levels(h, opts, |enc| {
+        let k = out.levels.len();
+        let mut level = to_level(&enc.level, DVec3::ZERO, 1.0);
+        let src = &h.levels[k].mesh.vertices.positions;
+        level.mesh.vertices.positions = enc.vertex_old.iter().map(|&v| src[v as usize]).collect();
+        out.levels.push(level);
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// Writes `h` to `path` atomically: a temporary file in the same folder, renamed into place.
+pub fn write_path(path: &Path, h: &Hierarchy, opts: &EncodeOptions) -> Result<(), EncodeError> {
+    let bytes = encode(h, opts)?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new().prefix(".octowrap-").suffix(".tmp").tempfile_in(dir)?;
+    tmp.write_all(&bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| EncodeError::Io(e.error))?;
+    Ok(())
+}
+
+/// Reads an MRQ file from `path` (buffered, streaming: levels beyond `opts.max_level` are not read).
+pub fn read_path(path: &Path, opts: &DecodeOptions) -> Result<MrqFile, Error> {
+    let f = std::fs::File::open(path)?;
+    decode(std::io::BufReader::with_capacity(1 << 20, f), opts)
+}
+
+/// Whether `bytes` start with the MRQ magic number.
+pub fn is_mrq(bytes: &[u8]) -> bool {
+    bytes.len() >= 8 && bytes[..8] == MAGIC
+}

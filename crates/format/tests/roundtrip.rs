@@ -1,0 +1,115 @@
+//! Round trips: topology exact (in the canonical order), every vertex within half a grid step on
+//! every axis at every level, deterministic bytes, partial decoding.
+
+use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
+use octowrap_format::{
+    DecodeOptions, EncodeOptions, Error, Quantization, canonical, decode, encode, encode_with_stats, read_info,
+};
+use octowrap_mesh::{Hierarchy, Mesh};
+
+/// Checks `decode(encode(h))` against `canonical(h)`.
+fn check(h: &Hierarchy, opts: &EncodeOptions) -> Vec<u8> {
+    let bytes = encode(h, opts).expect("encodes");
+    assert_eq!(bytes, encode(h, opts).unwrap(), "encoding twice gives the same bytes");
+    let want = canonical(h, opts).expect("canonical");
+    assert_eq!(encode(&want, opts).unwrap(), bytes, "the canonical form encodes to the same bytes");
+    let got = decode(&bytes[..], &DecodeOptions::default()).expect("decodes").hierarchy;
+    assert_eq!(got.levels.len(), want.levels.len());
+    assert_eq!(got.cube, want.cube);
+    let step = match decode(&bytes[..], &DecodeOptions::default()).unwrap().info.grid {
+        Some(g) => g.step,
+        None => 0.0,
+    };
+    for (k, (g, w)) in got.levels.iter().zip(&want.levels).enumerate() {
+        assert_eq!(g.mesh.faces, w.mesh.faces, "level {k} faces");
+        assert_eq!(g.origins, w.origins, "level {k} origins");
+        assert_eq!(g.lattice, w.lattice, "level {k} lattice");
+        assert_eq!(g.mesh.vertices.len(), w.mesh.vertices.len());
+        for (v, (a, b)) in g.mesh.vertices.positions.iter().zip(&w.mesh.vertices.positions).enumerate() {
+            let err = (*a - *b).abs().max_element();
+            assert!(err <= step * 0.5 * (1.0 + 1e-9) + 1e-12 * b.abs().max_element(), "level {k} vertex {v}: {err} > {step}/2");
+        }
+    }
+    // Same multiset of topology as the input: face counts and vertex counts agree.
+    for (g, i) in got.levels.iter().zip(&h.levels) {
+        assert_eq!(g.mesh.faces.len(), i.mesh.faces.len());
+        assert_eq!(g.mesh.vertices.len(), i.mesh.vertices.len());
+    }
+    bytes
+}
+
+#[test]
+fn lattice_hierarchy_round_trips() {
+    for seed in 0..4 {
+        let h = cube_hierarchy(5, Edits::default(), seed);
+        let (bytes, stats) = encode_with_stats(&h, &EncodeOptions::with_quantization(Quantization::Bits(12))).unwrap();
+        assert!(stats[1..].iter().all(|s| s.mode == 2), "lattice mode used: {stats:?}");
+        let _ = bytes;
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(12)));
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(20)));
+        check(&h, &EncodeOptions::with_quantization(Quantization::Exact));
+        check(&h, &EncodeOptions::with_quantization(Quantization::Step(0.001)));
+    }
+}
+
+#[test]
+fn generic_hierarchy_round_trips() {
+    for seed in 0..4 {
+        let h = without_lattice(cube_hierarchy(5, Edits::default(), seed));
+        let (_, stats) = encode_with_stats(&h, &EncodeOptions::default()).unwrap();
+        assert!(stats[1..].iter().all(|s| s.mode == 1));
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(12)));
+        check(&h, &EncodeOptions::with_quantization(Quantization::Exact));
+    }
+}
+
+#[test]
+fn canonical_subdivision_costs_next_to_nothing() {
+    for h in [cube_hierarchy(6, Edits::none(), 1), without_lattice(cube_hierarchy(6, Edits::none(), 1))] {
+        let (_, stats) = encode_with_stats(&h, &EncodeOptions::with_quantization(Quantization::Bits(12))).unwrap();
+        let last = h.levels.last().unwrap();
+        let bits = stats.last().unwrap().topology as f64 * 8.0 / last.mesh.vertices.len() as f64;
+        assert!(bits < 0.1, "topology of a pure subdivision: {bits} bits per vertex ({stats:?})");
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(12)));
+    }
+}
+
+#[test]
+fn one_level_meshes_round_trip_exactly() {
+    for (n, f, seed) in [(0, 0, 0), (1, 0, 1), (3, 1, 2), (100, 80, 3), (2000, 1500, 4)] {
+        let m = polygon_mesh(n, f, seed);
+        let h = Hierarchy::single(m.clone());
+        let bytes = check(&h, &EncodeOptions::with_quantization(Quantization::Exact));
+        let got = decode(&bytes[..], &DecodeOptions::default()).unwrap().hierarchy;
+        assert_eq!(got.levels[0].mesh, m, "exact files keep everything, order included");
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(16)));
+    }
+}
+
+#[test]
+fn partial_decoding_reads_only_the_prefix() {
+    let h = cube_hierarchy(5, Edits::default(), 9);
+    let bytes = encode(&h, &EncodeOptions::default()).unwrap();
+    let info = read_info(&bytes[..], &Default::default()).unwrap();
+    for k in 0..5u32 {
+        let e = &info.levels[k as usize];
+        let end = (e.offset + e.stored_size) as usize;
+        // Only the bytes up to the end of level k are available: still decodes levels 0..=k.
+        let f = decode(&bytes[..end], &DecodeOptions::up_to(k)).unwrap();
+        assert_eq!(f.hierarchy.levels.len(), k as usize + 1);
+        let full = decode(&bytes[..], &DecodeOptions::default()).unwrap();
+        assert_eq!(f.hierarchy.levels[..], full.hierarchy.levels[..=k as usize]);
+    }
+    assert!(matches!(decode(&bytes[..], &DecodeOptions::up_to(5)), Err(Error::NoSuchLevel { .. })));
+}
+
+#[test]
+fn bad_inputs_are_refused() {
+    let h = Hierarchy::single(Mesh::default());
+    assert!(encode(&Hierarchy::default(), &EncodeOptions::default()).is_err());
+    assert!(encode(&h, &EncodeOptions::with_quantization(Quantization::Bits(0))).is_err());
+    assert!(encode(&h, &EncodeOptions::with_quantization(Quantization::Step(-1.0))).is_err());
+    let mut m = polygon_mesh(4, 2, 1);
+    m.vertices.positions[0].x = f64::NAN;
+    assert!(encode(&Hierarchy::single(m), &EncodeOptions::default()).is_err());
+}
