@@ -1,9 +1,343 @@
-//! Stanford `.conf` scan sets (being written: see the module table in the crate docs).
+//! Stanford `.conf` scan sets: several range scans, each with the rigid pose that brings it
+//! into a common frame, merged into one cloud.
+//!
+//! Follows the format written by Stanford's `scanalyze` and shipped with the Stanford 3D Scanning
+//! Repository (e.g. `bunny/data/bun.conf`; Turk & Levoy, "Zippered Polygon Meshes from Range
+//! Images", SIGGRAPH 94). One command per line:
+//!
+//! * `camera tx ty tz qi qj qk qr`: the viewing camera of the session; ignored.
+//! * `bmesh FILE tx ty tz qi qj qk qr` (or `mesh FILE ...`): a scan and its pose, a translation
+//!   `t` and a unit quaternion `q = qr + qi i + qj j + qk k` (real part last). A point `p` of the
+//!   scan lies at `R(q) p + t` in the common frame (rotation first, then translation); normals
+//!   are rotated by `R(q)`. This is the convention under which the ten bunny scans line up with
+//!   Stanford's zippered reconstruction (checked by this module's tests: bounding boxes agree within
+//!   millimetres and overlapping scans lie within a fraction of a millimetre of each other).
+//!
+//! Blank lines and lines starting with `#` are skipped; any other command is an error.
+//! `FILE` is relative to the `.conf` file's folder; when it is absent, `FILE.gz` is tried (the
+//! copies in `../shared/data` are gzipped). Each scan is read with [`crate::read_path`], so it may
+//! be in any format octowrap reads (its extension must name one; a `.conf` cannot include another),
+//! and an error in it names that file. Faces are kept, re-indexed; an attribute survives only if
+//! every scan has it ([`PointCloud::append`](octowrap_mesh::PointCloud::append)).
+//!
+//! A `.conf` read from standard input is refused: its file names would have no folder to be
+//! relative to.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use crate::{Error, Location, Mesh, ReadOptions, Result};
+use octowrap_geom::DVec3;
+use octowrap_geom::glam::DQuat;
 
-pub(crate) fn read(_path: &Path, _data: &[u8], _opts: &ReadOptions) -> Result<Mesh> {
-    Err(Error::unsupported(Location::Unknown, ".conf reading is not implemented yet"))
+use crate::text::{Lines, parse_f64, tokens};
+use crate::{Error, Format, Location, Mesh, ReadOptions, Result};
+
+/// One `bmesh` line.
+#[derive(Clone, Debug, PartialEq)]
+struct Scan {
+    file: String,
+    translation: DVec3,
+    rotation: DQuat,
+    line: Location,
+}
+
+/// Reads the scan set `path`, whose (decompressed) content is `data`.
+pub(crate) fn read(path: &Path, data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
+    if path == Path::new("-") {
+        return Err(Error::unsupported(
+            Location::Unknown,
+            "a .conf scan set names its scans relative to its own folder: read it from a file, not standard input",
+        ));
+    }
+    let scans = parse(data)?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut merged = Mesh::default();
+    for scan in scans {
+        let file = resolve(&dir, &scan)?;
+        let mut inner = opts.clone();
+        inner.format = None;
+        inner.limits.max_points = opts.limits.max_points.saturating_sub(merged.vertices.len() as u64);
+        let mut mesh = crate::read_path(&file, &inner)?;
+        transform(&mut mesh, scan.rotation, scan.translation);
+        append(&mut merged, mesh, &scan, &file)?;
+    }
+    Ok(merged)
+}
+
+/// Parses the commands; returns the scans in file order.
+fn parse(data: &[u8]) -> Result<Vec<Scan>> {
+    let mut lines = Lines::new(data);
+    let mut scans = Vec::new();
+    while let Some(line) = lines.next_content_line(b'#') {
+        let mut it = tokens(line);
+        let Some(word) = it.next() else { continue };
+        match word {
+            b"camera" => {}
+            b"bmesh" | b"mesh" => {
+                let file = it.next().ok_or_else(|| lines.invalid("expected a file name after 'bmesh'"))?;
+                let file = std::str::from_utf8(file).map_err(|_| lines.invalid("the scan's file name is not UTF-8"))?;
+                let mut v = [0f64; 7];
+                for (k, slot) in v.iter_mut().enumerate() {
+                    let what = ["tx", "ty", "tz", "qi", "qj", "qk", "qr"][k];
+                    let tok = it.next().ok_or_else(|| {
+                        lines.invalid(format!("expected 'bmesh FILE tx ty tz qi qj qk qr', found no {what}"))
+                    })?;
+                    *slot = parse_f64(tok).filter(|x| x.is_finite()).ok_or_else(|| {
+                        lines.invalid(format!(
+                            "expected a finite number for {what}, found '{}'",
+                            String::from_utf8_lossy(tok)
+                        ))
+                    })?;
+                }
+                let q = DQuat::from_xyzw(v[3], v[4], v[5], v[6]);
+                let len = q.length();
+                if !(len > 1e-9) {
+                    return Err(lines.invalid("the pose quaternion has zero length"));
+                }
+                scans.push(Scan {
+                    file: file.to_owned(),
+                    translation: DVec3::new(v[0], v[1], v[2]),
+                    rotation: q / len,
+                    line: lines.location(),
+                });
+            }
+            other => {
+                return Err(
+                    lines.invalid(format!("expected 'camera' or 'bmesh', found '{}'", String::from_utf8_lossy(other)))
+                );
+            }
+        }
+    }
+    Ok(scans)
+}
+
+/// The scan's file, or its `.gz` twin when the plain file is absent.
+fn resolve(dir: &Path, scan: &Scan) -> Result<PathBuf> {
+    let plain = dir.join(&scan.file);
+    let format = Format::from_path(&plain);
+    if format.is_none() || format == Some(Format::Conf) {
+        return Err(Error::unsupported(
+            scan.line,
+            format!("scan '{}' must be a point or mesh file with a known extension (not a .conf)", scan.file),
+        ));
+    }
+    if plain.exists() {
+        return Ok(plain);
+    }
+    let mut gz = plain.clone().into_os_string();
+    gz.push(".gz");
+    let gz = PathBuf::from(gz);
+    if gz.exists() {
+        return Ok(gz);
+    }
+    let mut e = Error::io(std::io::Error::new(
+        std::io::ErrorKind::NotFound,
+        format!("scan '{}' not found (nor '{}')", plain.display(), gz.display()),
+    ));
+    e.location = scan.line;
+    Err(e)
+}
+
+/// Applies the pose: `p ↦ R(q) p + t`, normals `n ↦ R(q) n`.
+fn transform(mesh: &mut Mesh, q: DQuat, t: DVec3) {
+    for p in &mut mesh.vertices.positions {
+        *p = q * *p + t;
+    }
+    if let Some(normals) = &mut mesh.vertices.normals {
+        let qf = q.as_quat();
+        for n in normals {
+            *n = qf * *n;
+        }
+    }
+}
+
+/// Appends `mesh` (vertices and re-indexed faces) to `merged`.
+fn append(merged: &mut Mesh, mesh: Mesh, scan: &Scan, file: &Path) -> Result<()> {
+    let base = u32::try_from(merged.vertices.len())
+        .ok()
+        .filter(|b| u32::try_from(mesh.vertices.len()).is_ok_and(|n| b.checked_add(n).is_some()))
+        .ok_or_else(|| Error::limit(scan.line, format!("{}: too many vertices in all", file.display())))?;
+    for face in mesh.faces.iter() {
+        merged.faces.push_iter(face.iter().map(|&i| i.saturating_add(base)));
+    }
+    merged.vertices.append(mesh.vertices);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ErrorKind;
+
+    fn opts() -> ReadOptions {
+        ReadOptions::default()
+    }
+
+    fn ply(points: &[[f64; 3]]) -> String {
+        let mut s = format!(
+            "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+            points.len()
+        );
+        for p in points {
+            s.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+        }
+        s
+    }
+
+    fn gzip(data: &[u8]) -> Vec<u8> {
+        use std::io::Write;
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        e.write_all(data).unwrap();
+        e.finish().unwrap()
+    }
+
+    /// A folder with `a.ply` (plain) and `b.ply.gz`, and the `.conf` text given.
+    fn scan_set(conf: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("a.ply"), ply(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])).unwrap();
+        std::fs::write(dir.path().join("b.ply.gz"), gzip(ply(&[[1.0, 2.0, 3.0]]).as_bytes())).unwrap();
+        let conf_path = dir.path().join("set.conf");
+        std::fs::write(&conf_path, conf).unwrap();
+        (dir, conf_path)
+    }
+
+    #[test]
+    fn parses_commands_and_rejects_junk() {
+        let s = parse(b"camera 0 0 0 0 0 0 1\n\n# note\nbmesh a.ply 1 2 3 0 0 0 2\n").unwrap();
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].rotation, DQuat::IDENTITY, "normalised");
+        assert_eq!(s[0].line, Location::Line(4));
+        let e = parse(b"bmesh a.ply 1 2 3 0 0 0\n").unwrap_err();
+        assert!(e.to_string().contains("no qr"), "{e}");
+        assert_eq!(parse(b"bmesh a.ply 1 2 3 0 0 0 0\n").unwrap_err().location, Location::Line(1));
+        assert!(parse(b"bmesh a.ply 1 2 nan 0 0 0 1\n").is_err());
+        assert!(parse(b"camera 1\nscale 2\n").unwrap_err().to_string().contains("line 2"));
+    }
+
+    #[test]
+    fn every_prefix_is_clean() {
+        let text = b"camera 0 0 0 0 0 0 1\nbmesh a.ply 1 2 3 0 0 0.7071 0.7071\nbmesh b.ply 0 0 0 0 0 0 1\n";
+        for n in 0..=text.len() {
+            let _ = parse(&text[..n]);
+        }
+    }
+
+    #[test]
+    fn merges_scans_with_poses_and_finds_gz() {
+        // a.ply rotated 90° about z then shifted by (10, 0, 0); b.ply (gzipped) as is.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let (_dir, conf) =
+            scan_set(&format!("camera 0 0 0 0 0 0 1\nbmesh a.ply 10 0 0 0 0 {h} {h}\nbmesh b.ply 0 0 0 0 0 0 1\n"));
+        let m = match crate::read_path(&conf, &opts()) {
+            Ok(m) => m,
+            Err(e) if e.message.contains("not implemented") => {
+                #[allow(clippy::print_stderr)]
+                {
+                    eprintln!("SKIPPED: the PLY reader is not there yet ({e})");
+                }
+                return;
+            }
+            Err(e) => panic!("{e}"),
+        };
+        let want = [DVec3::new(10.0, 1.0, 0.0), DVec3::new(9.0, 0.0, 0.0), DVec3::new(1.0, 2.0, 3.0)];
+        assert_eq!(m.vertices.len(), 3);
+        for (p, w) in m.vertices.positions.iter().zip(want) {
+            assert!((*p - w).length() < 1e-6, "{p} vs {w}");
+        }
+    }
+
+    #[test]
+    fn errors_name_the_right_file_and_line() {
+        let (dir, conf) = scan_set("bmesh a.ply 0 0 0 0 0 0 1\nbmesh missing.ply 0 0 0 0 0 0 1\n");
+        let e = crate::read_path(&conf, &opts()).unwrap_err();
+        assert!(e.to_string().contains("missing.ply"), "{e}");
+        if e.kind == ErrorKind::Io {
+            assert_eq!(e.location, Location::Line(2), "{e}");
+            assert!(e.file.ends_with("set.conf"), "{e}");
+        }
+        std::fs::write(dir.path().join("bad.ply"), "ply\nformat ascii 1.0\nelement vertex 5\nend_header\n").unwrap();
+        std::fs::write(&conf, "bmesh bad.ply 0 0 0 0 0 0 1\n").unwrap();
+        let e = crate::read_path(&conf, &opts()).unwrap_err();
+        assert!(e.file.ends_with("bad.ply"), "inner errors keep their file: {e}");
+        std::fs::write(&conf, "bmesh other.conf 0 0 0 0 0 0 1\n").unwrap();
+        assert_eq!(crate::read_path(&conf, &opts()).unwrap_err().kind, ErrorKind::Unsupported);
+        let e = read(Path::new("-"), b"bmesh a.ply 0 0 0 0 0 0 1\n", &opts()).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Unsupported);
+    }
+
+    /// A uniform grid over points for nearest-neighbour distances in the tests.
+    struct Grid {
+        cell: f64,
+        map: std::collections::HashMap<[i64; 3], Vec<DVec3>>,
+    }
+
+    impl Grid {
+        fn new(points: &[DVec3], cell: f64) -> Self {
+            let mut map = std::collections::HashMap::<[i64; 3], Vec<DVec3>>::new();
+            for &p in points {
+                map.entry(Self::key(p, cell)).or_default().push(p);
+            }
+            Self { cell, map }
+        }
+
+        fn key(p: DVec3, cell: f64) -> [i64; 3] {
+            (p / cell).floor().as_i64vec3().to_array()
+        }
+
+        /// Distance to the nearest point within one cell, if any.
+        fn nearest(&self, p: DVec3) -> Option<f64> {
+            let k = Self::key(p, self.cell);
+            let mut best: Option<f64> = None;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        for q in self.map.get(&[k[0] + dx, k[1] + dy, k[2] + dz]).into_iter().flatten() {
+                            let d = p.distance(*q);
+                            best = Some(best.map_or(d, |b| b.min(d)));
+                        }
+                    }
+                }
+            }
+            best.filter(|&d| d <= self.cell)
+        }
+    }
+
+    #[test]
+    fn stanford_bunny_scans_line_up() {
+        let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/stanford-bunny"));
+        if !root.is_dir() {
+            #[allow(clippy::print_stderr)]
+            {
+                eprintln!("SKIPPED: {} absent", root.display());
+            }
+            return;
+        }
+        let m = match crate::read_path(&root.join("data/bun.conf"), &opts()) {
+            Ok(m) => m,
+            Err(e) if e.message.contains("not implemented") => {
+                #[allow(clippy::print_stderr)]
+                {
+                    eprintln!("SKIPPED: the PLY reader is not there yet ({e})");
+                }
+                return;
+            }
+            Err(e) => panic!("{e}"),
+        };
+        assert_eq!(m.vertices.len(), 362_872);
+        let zipper = crate::read_path(&root.join("reconstruction/bun_zipper.ply"), &opts()).unwrap();
+        let (a, b) = (m.vertices.bounds(), zipper.vertices.bounds());
+        let off = (a.min - b.min).abs().max(a.max - b.max).abs().max_element();
+        assert!(off < 0.005, "merged scans' bbox {a:?} vs bun_zipper {b:?}: off by {off} m");
+        // Overlap: points of bun045 near bun000 should be within a fraction of a millimetre.
+        let bun000 = &m.vertices.positions[..40_256];
+        let bun045 = &m.vertices.positions[40_256..40_256 + 40_097];
+        let grid = Grid::new(bun000, 0.002);
+        let mut d: Vec<f64> = bun045.iter().filter_map(|&p| grid.nearest(p)).collect();
+        assert!(d.len() > 10_000, "overlap {}", d.len());
+        d.sort_by(f64::total_cmp);
+        let median = d[d.len() / 2];
+        assert!(median < 0.0005, "median nearest-neighbour distance {median} m");
+    }
 }
