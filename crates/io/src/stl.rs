@@ -14,10 +14,11 @@
 //! after the declared triangles are ignored).
 //!
 //! # Shared vertices
-//! STL stores every triangle's corners separately. The reader merges corners at *exactly* equal
-//! positions (bit-for-bit, `-0.0` taken as `0.0`) into one vertex, numbered in the order first
-//! seen, so meshes come back indexed and the result does not depend on hashing. Nothing closer
-//! than equal is merged. Stored facet normals are ignored (they are recomputed when needed).
+//! STL stores every triangle's corners separately, and the reader keeps them so: a file of `n`
+//! triangles reads as `3n` vertices and `n` faces, exactly as stored (the counts the data sets'
+//! PROVENANCE files state). Merging corners at exactly equal positions into an indexed mesh is a
+//! separate, explicit step: [`Mesh::weld_exact`](octowrap_mesh::Mesh::weld_exact) (`octowrap
+//! convert --weld`). Stored facet normals are ignored (they are recomputed on writing).
 //!
 //! # Writing
 //! Binary by default, ascii with `WriteOptions::ascii`. Triangles as they are; quads split along
@@ -26,7 +27,6 @@
 //! positions; ascii STL writes them in `f64` shortest round-trip form. A mesh without faces cannot
 //! be written (STL holds only triangles).
 
-use std::collections::HashMap;
 use std::io::Write;
 
 use octowrap_geom::DVec3;
@@ -54,36 +54,29 @@ fn looks_ascii(data: &[u8]) -> bool {
         && !data.get(..512).unwrap_or(data).contains(&0)
 }
 
-/// Merges exactly equal positions, in first-seen order.
-struct Welder {
-    index: HashMap<[u64; 3], u32>,
+/// Collects triangles as stored: three new vertices per triangle.
+struct Soup {
     positions: Vec<DVec3>,
     faces: FaceList,
     max_points: u64,
 }
 
-impl Welder {
+impl Soup {
     fn new(triangles: usize, limits: &Limits) -> Self {
         Self {
-            index: HashMap::with_capacity(triangles / 2 + 1),
-            positions: Vec::with_capacity(triangles / 2 + 1),
-            faces: FaceList::with_capacity(triangles, triangles * 3),
+            positions: Vec::with_capacity(triangles.saturating_mul(3)),
+            faces: FaceList::with_capacity(triangles, triangles.saturating_mul(3)),
             max_points: limits.max_points,
         }
     }
 
     fn vertex(&mut self, p: DVec3, at: Location) -> Result<u32> {
-        // Adding 0.0 turns -0.0 into +0.0, so the two zeros merge.
-        let key = [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()];
-        let next = self.positions.len() as u32;
-        let i = *self.index.entry(key).or_insert(next);
-        if i == next {
-            if u64::from(next) >= self.max_points {
-                return Err(Error::limit(at, format!("more than {} distinct vertices", self.max_points)));
-            }
-            self.positions.push(p);
+        let next = self.positions.len() as u64;
+        if next >= self.max_points || next >= u64::from(u32::MAX) {
+            return Err(Error::limit(at, format!("more than {} vertices", self.max_points.min(u64::from(u32::MAX)))));
         }
-        Ok(i)
+        self.positions.push(p);
+        Ok(next as u32)
     }
 
     fn finish(self) -> Mesh {
@@ -106,7 +99,7 @@ fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
     let count = u32::from_le_bytes([count[0], count[1], count[2], count[3]]);
     let body = data.get(84..).unwrap_or_default();
     let n = justify(u64::from(count), 50, body.len(), limits.max_faces, "triangles", Location::Byte(80))?;
-    let mut weld = Welder::new(n, limits);
+    let mut soup = Soup::new(n, limits);
     let f =
         |b: &[u8], o: usize| f64::from(b.get(o..o + 4).map_or(0.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])));
     for (k, t) in body.chunks_exact(50).take(n).enumerate() {
@@ -114,16 +107,16 @@ fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
         let mut tri = [0u32; 3];
         for (c, slot) in tri.iter_mut().enumerate() {
             let o = 12 + 12 * c;
-            *slot = weld.vertex(DVec3::new(f(t, o), f(t, o + 4), f(t, o + 8)), at)?;
+            *slot = soup.vertex(DVec3::new(f(t, o), f(t, o + 4), f(t, o + 8)), at)?;
         }
-        weld.faces.push(&tri);
+        soup.faces.push(&tri);
     }
-    Ok(weld.finish())
+    Ok(soup.finish())
 }
 
 fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
     let mut t = Tokens::new(data, 0, 1);
-    let mut weld = Welder::new(data.len() / 256, limits);
+    let mut soup = Soup::new(data.len() / 256, limits);
     let mut corners: Vec<u32> = Vec::with_capacity(3);
     let expect = |t: &mut Tokens<'_>, word: &[u8]| -> Result<()> {
         match t.next_token() {
@@ -193,7 +186,7 @@ fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
                     Some(b"vertex") => {
                         let at = t.location();
                         let p = DVec3::new(t.f64("x")?, t.f64("y")?, t.f64("z")?);
-                        corners.push(weld.vertex(p, at)?);
+                        corners.push(soup.vertex(p, at)?);
                     }
                     Some(b"endloop") => break,
                     other => {
@@ -211,16 +204,16 @@ fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
                 }
             }
             expect(&mut t, b"endfacet")?;
-            if weld.faces.len() as u64 >= limits.max_faces {
+            if soup.faces.len() as u64 >= limits.max_faces {
                 return Err(Error::limit(t.location(), format!("more than {} facets", limits.max_faces)));
             }
-            if weld.faces.corner_count().saturating_add(corners.len()) > u32::MAX as usize {
+            if soup.faces.corner_count().saturating_add(corners.len()) > u32::MAX as usize {
                 return Err(Error::limit(t.location(), "more than 2^32 face corners in all".to_owned()));
             }
-            weld.faces.push(&corners);
+            soup.faces.push(&corners);
         }
     }
-    Ok(weld.finish())
+    Ok(soup.finish())
 }
 
 /// The triangles STL stores for `mesh`: quads split along the shorter diagonal, larger polygons
@@ -324,11 +317,13 @@ mod tests {
         vertex 0 0 0\nvertex 0 1 0\nvertex 0 0 5\nendloop\nendfacet\nendsolid\n";
 
     #[test]
-    fn ascii_several_solids_welded() {
-        let m = rd(ASCII).unwrap();
-        assert_eq!(m.vertex_count(), 5, "-0 and 0 merge; repeated corners merge");
+    fn ascii_several_solids_as_stored() {
+        let mut m = rd(ASCII).unwrap();
+        assert_eq!(m.vertex_count(), 9, "three vertices per triangle, as stored");
+        assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[3, 4, 5], &[6, 7, 8]]);
+        assert_eq!(m.vertices.positions[8], DVec3::new(0.0, 0.0, 5.0));
+        assert_eq!(m.weld_exact(), 4, "-0 and 0 weld; repeated corners weld");
         assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[0, 2, 3], &[0, 3, 4]]);
-        assert_eq!(m.vertices.positions[4], DVec3::new(0.0, 0.0, 5.0));
     }
 
     fn binary(tris: &[[[f32; 3]; 3]], header: &[u8]) -> Vec<u8> {
@@ -355,8 +350,9 @@ mod tests {
             let data = binary(&tris, header);
             assert!(looks_binary(&data));
             let m = rd(&data).unwrap();
-            assert_eq!(m.vertex_count(), 4);
-            assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[1, 2, 3]]);
+            assert_eq!(m.vertex_count(), 6);
+            assert_eq!(m.vertices.positions[5], DVec3::new(1.0, 1.0, 0.5));
+            assert_eq!(m.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[3, 4, 5]]);
             every_prefix(&data, read);
         }
     }
@@ -396,7 +392,8 @@ mod tests {
         write(&mut out, &m, &WriteOptions::default()).unwrap();
         assert_eq!(out.len(), 84 + 100);
         assert!(!out.starts_with(b"solid"));
-        let back = rd(&out).unwrap();
+        let mut back = rd(&out).unwrap();
+        back.weld_exact();
         assert_eq!(back.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[1, 3, 2]]);
         assert_eq!(f32::from_le_bytes([out[84 + 8], out[85 + 8], out[86 + 8], out[87 + 8]]), 1.0, "facet normal +z");
         let e = write(&mut Vec::new(), &Mesh::from_positions(vec![DVec3::ZERO]), &WriteOptions::default()).unwrap_err();
