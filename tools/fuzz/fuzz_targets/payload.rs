@@ -1,0 +1,30 @@
+//! Structure-aware: the input's first bytes pick a seed file (a synthetic hierarchy) and a level;
+//! the rest overwrites that level's decompressed payload, and the file is resealed (checksums
+//! fixed) so that the mutation reaches the level decoder. Must never panic.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use octowrap_format::fuzzing::{payloads, reseal};
+use octowrap_format::synthetic::{Edits, cube_hierarchy, without_lattice};
+use octowrap_format::{DecodeOptions, EncodeOptions, Limits, Quantization, decode, encode};
+
+fuzz_target!(|data: &[u8]| {
+    let [which, level, rest @ ..] = data else { return };
+    let h = cube_hierarchy(3, Edits::default(), u64::from(*which % 4));
+    let h = if which & 4 != 0 { without_lattice(h) } else { h };
+    let Ok(bytes) = encode(&h, &EncodeOptions::with_quantization(Quantization::Bits(12))) else { return };
+    let Some(mut p) = payloads(&bytes) else { return };
+    let k = usize::from(*level) % p.len();
+    // XOR the fuzz bytes over the payload, keeping its length unless the input is longer.
+    for (i, b) in rest.iter().enumerate() {
+        if i < p[k].len() {
+            p[k][i] ^= b;
+        } else {
+            p[k].push(*b);
+        }
+    }
+    let Some(file) = reseal(&bytes, &p, None) else { return };
+    let mut opts = DecodeOptions::default();
+    opts.limits = Limits::strict();
+    let _ = decode(&file[..], &opts);
+});
