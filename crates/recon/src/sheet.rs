@@ -94,6 +94,27 @@ impl Mask {
     }
 }
 
+/// Whether `points` lie in two layers along `n`: sorted by height over the plane `(m, n)`, some
+/// gap between consecutive heights is wider than a twentieth of a voxel and than three times the
+/// largest gap expected from uniform sampling (`ln k` mean gaps), with at least a tenth of the
+/// points (and 2) on either side. A single sheet, noisy or curved, has no such gap; both sides of a
+/// thin plate, or a plate with the foot of a pillar, do.
+fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) -> bool {
+    let k = points.len();
+    if k < 6 {
+        return false;
+    }
+    let mut d: Vec<f64> = points.iter().map(|p| (p.as_dvec3() - m).dot(n)).collect();
+    d.sort_unstable_by(f64::total_cmp);
+    let range = d[k - 1] - d[0];
+    let need = 3.0 * (k as f64).ln() * range / k as f64;
+    let side = (k / 10).max(2);
+    (side..=k - side).any(|i| {
+        let gap = d[i] - d[i - 1];
+        gap > 0.05 * h && gap > need
+    })
+}
+
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
 pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &KeyMap) -> Mask {
     let level = fine.level;
@@ -120,23 +141,11 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
                 return unreliable;
             }
             let (m, n) = (plane.point, plane.normal);
-            let r = l0.sqrt();
             let mut state = State::Unsigned;
-            if r > 0.05 * h && fine.count(i) >= 6 {
-                let (mut near, mut above, mut below) = (0usize, 0usize, 0usize);
-                for p in &pts[fine.range(i)] {
-                    let d = (p.as_dvec3() - m).dot(n);
-                    if d.abs() < 0.5 * r {
-                        near += 1;
-                    } else if d > 0.0 {
-                        above += 1;
-                    } else {
-                        below += 1;
-                    }
-                }
-                if above >= 2 && below >= 2 && 4 * near < fine.count(i) {
-                    state = State::TwoSided;
-                }
+            let own = fine.moments[i].fit_plane();
+            let planes = [Some((m, n)), own.map(|p| (p.point, p.normal))];
+            if planes.iter().flatten().any(|&(m, n)| two_layers(&pts[fine.range(i)], m, n, h)) {
+                state = State::TwoSided;
             }
             Sheet { m, n, state }
         })
@@ -201,6 +210,28 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
         }
     });
 
+    // 2b. One sheet lying across two voxel layers (a flat sheet on a voxel boundary) must not get
+    // two orientations: neighbours on the same plane (own point means within a tenth of a voxel along
+    // the normal, normals within 25 degrees) that disagree both take the tie-break below.
+    let conflicted: Vec<usize> = (0..fine.len())
+        .into_par_iter()
+        .filter(|&i| sheets[i].state == State::Signed)
+        .filter(|&i| {
+            let key = fine.keys[i];
+            let mi = fine.moments[i].mean().unwrap_or_default();
+            BLOCK.iter().any(|&off| {
+                offset(key, off, level).and_then(|k| fine.find(k)).is_some_and(|k| {
+                    let mk = fine.moments[k].mean().unwrap_or_default();
+                    sheets[k].state == State::Signed
+                        && sheets[k].n.dot(sheets[i].n) < -0.9
+                        && (mi - mk).dot(sheets[i].n).abs() < 0.1 * h
+                })
+            })
+        })
+        .collect();
+    for i in conflicted {
+        sheets[i].state = State::Unsigned;
+    }
     // 3. Spread orientation to unsettled reliable voxels, in synchronous sweeps.
     for _ in 0..3 {
         let updates: Vec<(usize, f64)> = (0..fine.len())

@@ -78,3 +78,75 @@ fn torus_has_genus_one() {
         assert_eq!((t.boundary_edges, t.components, t.euler), (0, 1, 0), "level {j}");
     }
 }
+
+fn wrap_opts(level: u32) -> ReconOptions {
+    let mut o = opts(level);
+    o.sparse = octowrap_recon::SparseMode::Wrap;
+    o
+}
+
+#[test]
+fn bowl_stays_open_with_one_rim() {
+    let pts = support::bowl(40_000, 0.1);
+    let (_, tops) = build("bowl", &pts, &wrap_opts(6));
+    for (j, t) in tops.iter().enumerate().skip(2) {
+        assert_eq!((t.boundary_loops, t.components), (1, 1), "level {j}");
+    }
+}
+
+#[test]
+fn disc_with_a_hole_has_two_boundary_loops() {
+    let pts = support::annulus(40_000, 0.35);
+    let (_, tops) = build("annulus", &pts, &wrap_opts(6));
+    for (j, t) in tops.iter().enumerate().skip(4) {
+        assert_eq!((t.boundary_loops, t.components), (2, 1), "level {j}");
+    }
+}
+
+#[test]
+fn two_parallel_sheets_are_not_joined_across_the_gap() {
+    let mut pts = support::sheet(150, 0.0, 1);
+    pts.extend(support::sheet(150, 0.12, 2));
+    let (h, tops) = build("sheets", &pts, &wrap_opts(6));
+    for j in 5..=6 {
+        let frames = face_frames(&h.levels[j].mesh);
+        for (n, c) in &frames {
+            assert!(!(c.z > 0.03 && c.z < 0.09), "level {j}: a face between the sheets at {c}");
+            // No face looks into the gap.
+            assert!(!(c.z > 0.06 && n.z < -0.7) && !(c.z < 0.06 && n.z > 0.7), "level {j}: face at {c} looks into the gap");
+        }
+        assert_eq!(tops[j].components, 2, "level {j}");
+    }
+}
+
+#[test]
+fn thin_plate_stays_closed() {
+    let pts = support::box_surface(80_000, DVec3::ZERO, DVec3::new(1.0, 1.0, 0.06), 3);
+    let (h, tops) = build("plate", &pts, &wrap_opts(6));
+    for (j, t) in tops.iter().enumerate().skip(1) {
+        assert_eq!((t.boundary_edges, t.components, t.euler), (0, 1, 2), "level {j}");
+    }
+    // Once the plate is several voxels thick, the two sides face away from each other.
+    for (n, c) in face_frames(&h.levels[6].mesh) {
+        if n.z.abs() > 0.7 {
+            assert!(n.z * (c.z - 0.03) > 0.0, "a face at {c} looks into the plate");
+        }
+    }
+}
+
+#[test]
+fn plate_with_a_pillar_wraps_the_pillar() {
+    let mut pts = support::box_surface(60_000, DVec3::ZERO, DVec3::new(1.0, 1.0, 0.06), 5);
+    // A pillar one level-5 voxel across (1.02 / 32 = 0.032) and 0.3 tall.
+    pts.extend(support::box_surface(6_000, DVec3::new(0.5, 0.5, 0.06), DVec3::new(0.53, 0.53, 0.36), 6));
+    let (h, tops) = build("pillar", &pts, &wrap_opts(5));
+    // Levels 1-2 see the pillar's foot and the plate in one voxel; from level 3 on the whole
+    // object is closed.
+    for (j, t) in tops.iter().enumerate().skip(3) {
+        assert_eq!((t.boundary_edges, t.components, t.euler), (0, 1, 2), "level {j}");
+    }
+    for j in 3..=5 {
+        let top = h.levels[j].mesh.vertices.positions.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+        assert!(top > 0.3, "level {j}: the pillar is not wrapped (top {top})");
+    }
+}
