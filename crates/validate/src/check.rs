@@ -5,7 +5,7 @@
 //! edges; components by union-find over vertices joined by faces. Everything is deterministic:
 //! no hash-map order reaches the report.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use octowrap_mesh::Mesh;
 
@@ -357,7 +357,8 @@ fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
 }
 
 fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
-    let mut first = HashMap::with_capacity(mesh.vertex_count());
+    let mut first = FxHashMap::default();
+    first.reserve(mesh.vertex_count());
     let mut dups = Vec::new();
     for (i, p) in mesh.vertices.positions.iter().enumerate() {
         if p.is_nan() {
@@ -372,15 +373,26 @@ fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
 }
 
 fn duplicate_faces(faces: &octowrap_mesh::FaceList, usable: &[bool]) -> Vec<u32> {
-    let mut seen: HashMap<Vec<u32>, u32> = HashMap::new();
+    // Triangles and quads (nearly every face) key on a fixed array; larger faces on a vector.
+    let mut small: FxHashMap<[u32; 4], ()> = FxHashMap::default();
+    small.reserve(faces.len());
+    let mut large: FxHashMap<Vec<u32>, ()> = FxHashMap::default();
     let mut dups = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         if !usable[f] {
             continue;
         }
-        let mut key = face.to_vec();
-        key.sort_unstable();
-        if seen.insert(key, f as u32).is_some() {
+        let repeated = if face.len() <= 4 {
+            let mut key = [u32::MAX; 4];
+            key[..face.len()].copy_from_slice(face);
+            key.sort_unstable();
+            small.insert(key, ()).is_some()
+        } else {
+            let mut key = face.to_vec();
+            key.sort_unstable();
+            large.insert(key, ()).is_some()
+        };
+        if repeated {
             dups.push(f as u32);
         }
     }

@@ -5,6 +5,7 @@
 
 mod io;
 mod util;
+mod validate;
 
 fn main() {
     let wanted: Vec<String> = std::env::args().skip(1).collect();
@@ -15,5 +16,8 @@ fn main() {
     println!();
     if run("io") {
         io::report();
+    }
+    if run("validate") {
+        validate::report();
     }
 }

@@ -1,0 +1,92 @@
+//! Issue 5: manifold checks on a 1 M-face mesh, and trimesh's `is_watertight` on the same mesh.
+
+use std::process::Command;
+
+use octowrap_geom::DVec3;
+use octowrap_io::{WriteOptions, write_path};
+use octowrap_mesh::{FaceList, Mesh};
+use octowrap_validate::{Options, validate_mesh};
+
+use crate::util::best_of;
+
+/// A closed triangulated torus with `nu * nv * 2` faces.
+fn torus(nu: u32, nv: u32) -> Mesh {
+    let mut pos = Vec::with_capacity((nu * nv) as usize);
+    for i in 0..nu {
+        for j in 0..nv {
+            let (u, v) = (
+                std::f64::consts::TAU * f64::from(i) / f64::from(nu),
+                std::f64::consts::TAU * f64::from(j) / f64::from(nv),
+            );
+            pos.push(DVec3::new((2.0 + 0.7 * v.cos()) * u.cos(), (2.0 + 0.7 * v.cos()) * u.sin(), 0.7 * v.sin()));
+        }
+    }
+    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
+    let mut tris = Vec::with_capacity((nu * nv * 2) as usize);
+    for i in 0..nu {
+        for j in 0..nv {
+            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let mut m = Mesh::from_positions(pos);
+    m.faces = FaceList::from_triangles(&tris);
+    m
+}
+
+/// Prints the validator table.
+pub fn report() {
+    println!("## Validator (issue 5)");
+    println!();
+    let mesh = torus(1000, 500);
+    let faces = mesh.faces.len();
+    let (secs, report) = best_of(3, || validate_mesh(&mesh, &Options::default()));
+    assert!(report.properties.watertight && report.properties.oriented, "the bench torus must be valid");
+    println!("| tool | mesh | faces | time (s) | M faces/s | target |");
+    println!("|---|---|---|---|---|---|");
+    println!(
+        "| octowrap validate_mesh (1 thread, all checks but self-intersection) | torus | {faces} | {secs:.3} | {:.1} | >= 20 |",
+        faces as f64 / secs / 1e6
+    );
+    match trimesh_time(&mesh) {
+        Ok((t, watertight)) => println!(
+            "| trimesh is_watertight + is_winding_consistent (fresh mesh, process=False) | torus | {faces} | {t:.3} | {:.1} | (comparison; watertight={watertight}) |",
+            faces as f64 / t / 1e6
+        ),
+        Err(why) => println!("| trimesh | torus | {faces} | – | – | not measured: {why} |"),
+    }
+    println!();
+}
+
+fn trimesh_time(mesh: &Mesh) -> Result<(f64, String), String> {
+    let dir = tempfile_dir()?;
+    let path = dir.join("torus.ply");
+    write_path(&path, mesh, &WriteOptions::default()).map_err(|e| e.to_string())?;
+    let script = r"
+import sys, time, trimesh
+m = trimesh.load(sys.argv[1], process=False)
+best = 1e9
+for _ in range(3):
+    fresh = trimesh.Trimesh(vertices=m.vertices, faces=m.faces, process=False)
+    t = time.perf_counter()
+    w = fresh.is_watertight and fresh.is_winding_consistent
+    best = min(best, time.perf_counter() - t)
+print(best, w)
+";
+    let out = Command::new("python3").arg("-c").arg(script).arg(&path).output().map_err(|e| format!("python3: {e}"))?;
+    let _ = std::fs::remove_dir_all(&dir);
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        return Err(err.lines().last().unwrap_or("python failed").to_owned());
+    }
+    let s = String::from_utf8_lossy(&out.stdout);
+    let mut it = s.split_whitespace();
+    let t = it.next().and_then(|x| x.parse().ok()).ok_or("no timing printed")?;
+    Ok((t, it.next().unwrap_or("?").to_owned()))
+}
+
+fn tempfile_dir() -> Result<std::path::PathBuf, String> {
+    let d = std::env::temp_dir().join(format!("octowrap-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&d).map_err(|e| e.to_string())?;
+    Ok(d)
+}
