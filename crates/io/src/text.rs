@@ -116,6 +116,43 @@ impl<'a> Tokens<'a> {
         if p == start { None } else { data.get(start..p) }
     }
 
+    /// The next token if it is a plain unsigned decimal below 10^18, read in one pass (the fast
+    /// path for face indices). Otherwise `None`, with only the whitespace before the token
+    /// consumed, so that a general parser can take the token and explain what is wrong.
+    #[inline]
+    pub(crate) fn plain_uint(&mut self) -> Option<u64> {
+        let data = self.data;
+        let mut p = self.pos;
+        while let Some(&c) = data.get(p) {
+            if c > b' ' {
+                break;
+            }
+            if c == b'\n' {
+                self.line += 1;
+            }
+            p += 1;
+        }
+        self.pos = p;
+        let start = p;
+        let mut v: u64 = 0;
+        while let Some(&c) = data.get(p) {
+            let d = c.wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            v = v * 10 + u64::from(d);
+            p += 1;
+            if p - start > 18 {
+                return None;
+            }
+        }
+        if p == start || data.get(p).is_some_and(|&c| c > b' ') {
+            return None;
+        }
+        self.pos = p;
+        Some(v)
+    }
+
     /// Skips the rest of the current line.
     pub(crate) fn skip_line(&mut self) {
         let rest = self.data.get(self.pos..).unwrap_or_default();
@@ -391,10 +428,22 @@ mod tests {
         assert_eq!(t.int("a").unwrap(), 1);
         assert_eq!(t.f64("b").unwrap(), 2.0);
         assert_eq!(t.f32("c").unwrap(), 3.0);
+        assert_eq!(t.plain_uint(), None);
         let e = t.f64("d").unwrap_err();
         assert_eq!(e.location, Location::Line(4));
         assert!(e.message.contains("found 'x'"), "{e}");
         assert!(t.f64("e").unwrap_err().message.contains("end of the input"));
+        let mut t = Tokens::new(b" 12\n7x -3 99999999999999999999 4", 0, 1);
+        assert_eq!(t.plain_uint(), Some(12));
+        assert_eq!(t.plain_uint(), None);
+        assert_eq!(t.next_token(), Some(&b"7x"[..]));
+        assert_eq!(t.location(), Location::Line(2));
+        assert_eq!(t.plain_uint(), None);
+        assert_eq!(t.int("i").unwrap(), -3);
+        assert_eq!(t.plain_uint(), None);
+        assert!(t.int("j").is_err());
+        assert_eq!(t.plain_uint(), Some(4));
+        assert_eq!(t.plain_uint(), None);
     }
 
     #[test]

@@ -4,7 +4,7 @@ use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
 use super::header::{Element, Encoding, Header, Property, Scalar};
-use crate::text::Tokens;
+use crate::text::{Tokens, parse_i64, truncated};
 use crate::{Error, Limits, Location, Result, justify};
 
 /// What a vertex property means to us.
@@ -181,7 +181,7 @@ fn corner_limit(faces: &FaceList, n: usize, at: Location) -> Result<()> {
 }
 
 fn index_u32(v: i64, at: Location) -> Result<u32> {
-    u32::try_from(v).map_err(|_| Error::invalid(at, format!("expected a vertex index from 0 to 2^32-2, found {v}")))
+    u32::try_from(v).map_err(|_| Error::invalid(at, format!("expected a vertex index from 0 to 2^32-1, found {v}")))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -221,8 +221,20 @@ fn ascii_vertices(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<P
 }
 
 fn ascii_count(t: &mut Tokens<'_>, name: &str) -> Result<usize> {
-    let c = t.int(&format!("the length of list '{name}'"))?;
-    usize::try_from(c).map_err(|_| Error::invalid(t.location(), format!("expected a list length, found {c}")))
+    let tok = t.next_token();
+    match tok.and_then(parse_i64).map(usize::try_from) {
+        Some(Ok(c)) => Ok(c),
+        _ => Err(Error::invalid(
+            t.location(),
+            format!(
+                "expected the length of list '{name}', found {}",
+                tok.map_or("the end of the input".to_owned(), |w| format!(
+                    "'{}'",
+                    String::from_utf8_lossy(truncated(w))
+                ))
+            ),
+        )),
+    }
 }
 
 fn ascii_skip_list(t: &mut Tokens<'_>, name: &str) -> Result<()> {
@@ -242,6 +254,26 @@ fn ascii_faces(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<Face
     let n = justify(el.count, 2 * el.props.len() as u64, t.remaining() + 1, limits.max_faces, "faces", t.location())?;
     let mut faces = FaceList::with_capacity(n, n.saturating_mul(3).min(t.remaining() / 2));
     let mut buf = Vec::with_capacity(16);
+    if let [Property::List { name, .. }] = &el.props[..] {
+        // The common layout: the corner list alone.
+        for _ in 0..n {
+            let c = match t.plain_uint() {
+                Some(c) => usize::try_from(c).unwrap_or(usize::MAX),
+                None => ascii_count(t, name)?,
+            };
+            buf.clear();
+            for _ in 0..c {
+                let i = match t.plain_uint() {
+                    Some(i) => i64::try_from(i).unwrap_or(i64::MAX),
+                    None => t.int("a vertex index")?,
+                };
+                buf.push(index_u32(i, t.location())?);
+            }
+            corner_limit(&faces, c, t.location())?;
+            faces.push(&buf);
+        }
+        return Ok(faces);
+    }
     let mut done = false;
     for _ in 0..n {
         for p in &el.props {
