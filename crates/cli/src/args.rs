@@ -25,6 +25,8 @@ pub enum Command {
     Convert(cmd::convert::Args),
     /// Print counts, bounds, properties and face sizes of point clouds and meshes.
     Info(cmd::info::Args),
+    /// Write one level of an MRQ hierarchy as a mesh file.
+    Extract(cmd::extract::Args),
     /// Check meshes for two-manifoldness, orientation, holes and defects (for CI pipelines).
     Validate(cmd::validate::Args),
 }

@@ -7,6 +7,7 @@ use anyhow::bail;
 use octowrap_io::{Format, WriteOptions};
 
 use super::input::{InputArgs, parse_format};
+use super::mrq;
 
 /// Convert a point cloud or mesh between formats.
 ///
@@ -21,6 +22,13 @@ use super::input::{InputArgs, parse_format};
 ///   octowrap convert --weld part.stl part.ply
 ///   gunzip -c cloud.xyz.gz | octowrap convert - --from xyz cloud.ply
 ///   octowrap convert depth.exr --camera 525,525,319.5,239.5 depth.ply
+///   octowrap convert bunny.ply bunny.mrq                 (lossless one-level MRQ)
+///   octowrap convert bunny.ply bunny.mrq --bits 14       (vertices within half a 2^-14 step)
+///   octowrap convert bunny.mrq --level 4 bunny_l4.obj
+///
+/// MRQ (octowrap's multiresolution format, spec/FORMAT.md): a mesh written to OUTPUT.mrq becomes a
+/// one-level file, stored exactly unless --bits or --step ask for quantization; an .mrq input
+/// converts to a mesh as its finest level, or level --level K (see also `octowrap extract`).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -38,12 +46,27 @@ pub struct Args {
     /// corner on its own; welding turns such a triangle soup into an indexed mesh.
     #[arg(long)]
     pub weld: bool,
+    /// MRQ input: the level to convert, 0 = coarsest (default: the finest).
+    #[arg(long, value_name = "K")]
+    pub level: Option<u32>,
+    #[command(flatten)]
+    pub mrq: mrq::MrqWriteArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let mrq_in = mrq::is_mrq(&args.input);
+    if args.to.is_none() && mrq::has_mrq_extension(&args.output) {
+        let h = if mrq_in {
+            mrq::read(&args.input, None)?.hierarchy
+        } else {
+            octowrap_mesh::Hierarchy::single(args.input_args.read(&args.input)?)
+        };
+        mrq::write(&args.output, &h, &args.mrq.options(true, &args.input))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let to = args.to.or_else(|| Format::from_path(&args.output));
     let Some(to) = to else {
         bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
@@ -51,7 +74,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if !to.writable() {
         bail!("octowrap reads {to} files but does not write them; writable: ply, obj, off, stl, xyz");
     }
-    let mut mesh = args.input_args.read(&args.input)?;
+    let mut mesh =
+        if mrq_in { mrq::read_level(&args.input, args.level)? } else { args.input_args.read(&args.input)? };
     if args.weld {
         let merged = mesh.weld_exact();
         eprintln!("welded {merged} vertices with equal positions; {} remain", mesh.vertex_count());

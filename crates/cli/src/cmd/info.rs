@@ -10,9 +10,13 @@ use super::input::InputArgs;
 
 /// Print counts, bounding box, attributes and face sizes of point clouds and meshes.
 ///
+/// For an MRQ file, print its levels (vertices, faces, bytes and bits per vertex of each),
+/// quantization, cube and metadata, read from the file's preamble alone.
+///
 /// Examples:
 ///   octowrap info bunny.ply
 ///   octowrap info --json scans/*.laz
+///   octowrap info bunny.mrq
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -101,8 +105,20 @@ impl Report {
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mut reports = Vec::new();
     for file in &args.files {
+        if super::mrq::is_mrq(file) {
+            let r = super::mrq::Report::new(file)?;
+            if !args.json {
+                r.print_text();
+            }
+            reports.push(serde_json::to_value(r)?);
+            continue;
+        }
         let (format, mesh) = args.input_args.read_detected(file)?;
-        reports.push(Report::new(file, format.name(), &mesh));
+        let r = Report::new(file, format.name(), &mesh);
+        if !args.json {
+            r.print_text();
+        }
+        reports.push(serde_json::to_value(r)?);
     }
     if args.json {
         let out = if reports.len() == 1 {
@@ -111,10 +127,6 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             serde_json::to_string_pretty(&reports)?
         };
         println!("{out}");
-    } else {
-        for r in &reports {
-            r.print_text();
-        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,8 +1,10 @@
 //! One module per subcommand.
 
 pub mod convert;
+pub mod extract;
 pub mod info;
 pub mod input;
+pub mod mrq;
 pub mod validate;
 
 use std::process::ExitCode;
@@ -13,6 +15,7 @@ use crate::args::{Cli, Command};
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Convert(a) => convert::run(&a),
+        Command::Extract(a) => extract::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Validate(a) => validate::run(&a),
     }
