@@ -174,8 +174,10 @@ mod tests {
             assert_eq!(unzigzag(zigzag(v)), v);
         }
         assert!(Reader::new(&[0xff; 11], 0, Where::Preamble, "t").varint().is_err());
-        assert!(Reader::new(&[0xff; 9].iter().chain(&[2]).copied().collect::<Vec<_>>(), 0, Where::Preamble, "t")
-            .varint()
-            .is_err());
+        assert!(
+            Reader::new(&[0xff; 9].iter().chain(&[2]).copied().collect::<Vec<_>>(), 0, Where::Preamble, "t")
+                .varint()
+                .is_err()
+        );
     }
 }

@@ -150,7 +150,8 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
     if h.version != crate::FORMAT_VERSION {
         return Err(Error::UnsupportedVersion { found: h.version });
     }
-    let bad = |offset: u64, reason: String| Error::Invalid { place: Where::Preamble, offset, what: "file header", reason };
+    let bad =
+        |offset: u64, reason: String| Error::Invalid { place: Where::Preamble, offset, what: "file header", reason };
     if usize::from(h.header_size) != HEADER_SIZE {
         return Err(bad(10, format!("header_size is {}, must be {HEADER_SIZE}", h.header_size)));
     }
@@ -319,7 +320,12 @@ mod tests {
         }
         assert_eq!(to_bytes(&e), want);
 
-        let m = Metadata { units: "m".into(), source: "ab".into(), generator: String::new(), entries: vec![("k".into(), "v".into())] };
+        let m = Metadata {
+            units: "m".into(),
+            source: "ab".into(),
+            generator: String::new(),
+            entries: vec![("k".into(), "v".into())],
+        };
         let mut want = Vec::new();
         want.extend(1u64.to_le_bytes());
         want.push(b'm');

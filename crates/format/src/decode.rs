@@ -6,8 +6,8 @@ use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, STREAM_NAMES,
-    Topo, geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, STREAM_NAMES, Topo,
+    geometry_pass, number_edges, rotated, s,
 };
 
 /// One decoded level on plain arrays.
@@ -166,9 +166,7 @@ pub fn decode_level(
         let mut slots: Vec<([u32; 3], u8)> = Vec::new();
         if mode == Mode::Lattice {
             parent_quads = pp.canonical_quads().map_err(|f| {
-                st[s::CHILD_MASKS].invalid(format!(
-                    "lattice mode needs a lattice parent of quads (parent face {f})"
-                ))
+                st[s::CHILD_MASKS].invalid(format!("lattice mode needs a lattice parent of quads (parent face {f})"))
             })?;
             let pslots = pp.slots.expect("checked");
             let n = 1u64 << (k + 1);
@@ -333,7 +331,12 @@ pub fn decode_level(
             let at = r.offset();
             let c = r.varint_max(nv as u64, "split vertex count")?;
             if c == 1 {
-                return Err(Error::Invalid { place, offset: at, what: "splits", reason: "a split entry must not say 1".into() });
+                return Err(Error::Invalid {
+                    place,
+                    offset: at,
+                    what: "splits",
+                    reason: "a split entry must not say 1".into(),
+                });
             }
             counted += c;
             if counted > nv as u64 {
@@ -355,7 +358,8 @@ pub fn decode_level(
         // §5.6: corners to vertices.
         let nexc = st[s::EXCEPTIONS].varint_max(nc as u64, "exception count")? as usize;
         let mut exc_left = nexc;
-        let mut next_exc = if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
+        let mut next_exc =
+            if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
         let mut prev_explicit = 0i64;
         for c in 0..nc {
             if pred[c] == u64::MAX {

@@ -7,7 +7,8 @@ use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, Topo, best_rotation, geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, Topo, best_rotation, geometry_pass, number_edges,
+    rotated, s,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
@@ -141,7 +142,10 @@ pub fn encode_level(
         if input.parents[f] != NO_PARENT && input.offsets[f + 1] - input.offsets[f] != 4 {
             return Err(EncodeError::Unsupported {
                 level: k as usize,
-                reason: format!("face {f} descends from a parent but has {} corners; subfaces are quads", input.offsets[f + 1] - input.offsets[f]),
+                reason: format!(
+                    "face {f} descends from a parent but has {} corners; subfaces are quads",
+                    input.offsets[f + 1] - input.offsets[f]
+                ),
             });
         }
     }
@@ -268,14 +272,12 @@ pub fn encode_level(
             names.push((nm, first, vi as u32 - first));
         }
     }
-    let extras: Vec<u64> =
-        names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
+    let extras: Vec<u64> = names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
     put_varint(&mut st.0[s::EXTRA_NAMES], extras.len() as u64);
     for (i, &n) in extras.iter().enumerate() {
         put_varint(&mut st.0[s::EXTRA_NAMES], if i == 0 { n } else { n - extras[i - 1] - 1 });
     }
-    let splits: Vec<(usize, u32)> =
-        names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
+    let splits: Vec<(usize, u32)> = names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
     put_varint(&mut st.0[s::SPLITS], splits.len() as u64);
     for (j, &(i, count)) in splits.iter().enumerate() {
         put_varint(&mut st.0[s::SPLITS], if j == 0 { i as u64 } else { (i - splits[j - 1].0 - 1) as u64 });

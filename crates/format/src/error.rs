@@ -36,7 +36,10 @@ pub enum Error {
         found: Vec<u8>,
     },
     /// The file's format version is not one this reader implements.
-    #[error("unsupported MRQ format version {found} at byte 8 (this reader implements version {})", crate::FORMAT_VERSION)]
+    #[error(
+        "unsupported MRQ format version {found} at byte 8 (this reader implements version {})",
+        crate::FORMAT_VERSION
+    )]
     UnsupportedVersion {
         /// The version found.
         found: u16,

@@ -493,7 +493,12 @@ fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> 
         return Err(Error::BadMagic { found: head[..m].to_vec() });
     }
     if got < HEADER_SIZE {
-        return Err(Error::Truncated { offset: 0, what: "file header".into(), needed: HEADER_SIZE as u64, got: got as u64 });
+        return Err(Error::Truncated {
+            offset: 0,
+            what: "file header".into(),
+            needed: HEADER_SIZE as u64,
+            got: got as u64,
+        });
     }
     let header = container::parse_header(&head, limits)?;
     let rest_len = ENTRY_SIZE as u64 * u64::from(header.level_count) + u64::from(header.metadata_size) + 8;
@@ -531,12 +536,19 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
         let stored = read_vec(&mut r, e.stored_size, e.offset, &format!("level {k}"))?;
         let computed = xxh3_64(&stored);
         if computed != e.checksum {
-            return Err(Error::ChecksumMismatch { place: Where::Level(k), offset: e.offset, stored: e.checksum, computed });
+            return Err(Error::ChecksumMismatch {
+                place: Where::Level(k),
+                offset: e.offset,
+                stored: e.checksum,
+                computed,
+            });
         }
         let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
         match zstd::zstd_safe::get_frame_content_size(&stored) {
             Ok(Some(size)) if size == e.raw_size => {}
-            Ok(Some(size)) => return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size))),
+            Ok(Some(size)) => {
+                return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size)));
+            }
             Ok(None) => return Err(zerr("the frame does not state its content size".into())),
             Err(_) => return Err(zerr("not a zstd frame".into())),
         }

@@ -27,7 +27,10 @@ fn check(h: &Hierarchy, opts: &EncodeOptions) -> Vec<u8> {
         assert_eq!(g.mesh.vertices.len(), w.mesh.vertices.len());
         for (v, (a, b)) in g.mesh.vertices.positions.iter().zip(&w.mesh.vertices.positions).enumerate() {
             let err = (*a - *b).abs().max_element();
-            assert!(err <= step * 0.5 * (1.0 + 1e-9) + 1e-12 * b.abs().max_element(), "level {k} vertex {v}: {err} > {step}/2");
+            assert!(
+                err <= step * 0.5 * (1.0 + 1e-9) + 1e-12 * b.abs().max_element(),
+                "level {k} vertex {v}: {err} > {step}/2"
+            );
         }
     }
     // Same multiset of topology as the input: face counts and vertex counts agree.
