@@ -47,13 +47,11 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
             while let [head @ .., b'\\'] = line {
                 joined.extend_from_slice(head);
                 joined.push(b' ');
-                match lines.next_line() {
-                    Some(next) => line = next,
-                    None => {
-                        line = b"";
-                        break;
-                    }
-                }
+                let Some(next) = lines.next_line() else {
+                    line = b"";
+                    break;
+                };
+                line = next;
             }
             joined.extend_from_slice(line);
             line = &joined;
@@ -70,22 +68,10 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
                 let y = expect_f64(&mut it, "y", &lines)?;
                 let z = expect_f64(&mut it, "z", &lines)?;
                 positions.push(DVec3::new(x, y, z));
-                let rest: Vec<&[u8]> = it.collect();
-                if let [.., r, g, b] = rest[..] {
-                    if rest.len() <= 4 {
-                        let mut c = [0.0f32; 3];
-                        for (k, t) in [r, g, b].into_iter().enumerate() {
-                            c[k] = parse_f64(t).ok_or_else(|| {
-                                lines.invalid(format!(
-                                    "expected a colour component, found '{}'",
-                                    String::from_utf8_lossy(truncated(t))
-                                ))
-                            })? as f32;
-                            color_max = color_max.max(c[k]);
-                        }
-                        if colors.len() + 1 == positions.len() {
-                            colors.push(c);
-                        }
+                if let Some(c) = vertex_color(it, &lines)? {
+                    color_max = c.iter().fold(color_max, |m, &v| m.max(v));
+                    if colors.len() + 1 == positions.len() {
+                        colors.push(c);
                     }
                 }
             }
@@ -135,6 +121,25 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     });
     let normals = (normals_map_one_to_one && n > 0 && normals.len() == n).then_some(normals);
     Ok(Mesh { vertices: PointCloud { positions, normals, colors, intensities: None }, faces })
+}
+
+/// The `r g b` after a vertex's `x y z` (alone, or after `w`), if there is one.
+fn vertex_color<'a>(rest: impl Iterator<Item = &'a [u8]>, lines: &Lines<'_>) -> Result<Option<[f32; 3]>> {
+    let mut buf: [&[u8]; 4] = [&[]; 4];
+    let mut n = 0;
+    for t in rest {
+        let Some(slot) = buf.get_mut(n) else { return Ok(None) };
+        *slot = t;
+        n += 1;
+    }
+    let ((3, [r, g, b, _]) | (4, [_, r, g, b])) = (n, buf) else { return Ok(None) };
+    let mut c = [0.0f32; 3];
+    for (slot, t) in c.iter_mut().zip([r, g, b]) {
+        *slot = parse_f64(t).ok_or_else(|| {
+            lines.invalid(format!("expected a colour component, found '{}'", String::from_utf8_lossy(truncated(t))))
+        })? as f32;
+    }
+    Ok(Some(c))
 }
 
 /// Resolves a 1-based or negative (relative) OBJ index against `count` elements so far.

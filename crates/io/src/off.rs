@@ -166,8 +166,8 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Res
         if let Some(n) = v.normals.as_ref().and_then(|n| n.get(i)) {
             let _ = write!(s, " {} {} {}", n.x, n.y, n.z);
         }
-        if let Some(c) = v.colors.as_ref().and_then(|c| c.get(i)) {
-            let _ = write!(s, " {} {} {} 255", c[0], c[1], c[2]);
+        if let Some([r, g, b]) = v.colors.as_ref().and_then(|c| c.get(i)) {
+            let _ = write!(s, " {r} {g} {b} 255");
         }
         s.push('\n');
         if s.len() > 60_000 {

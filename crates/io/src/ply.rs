@@ -53,6 +53,7 @@ fn positions_fit_f32(mesh: &Mesh) -> bool {
 
 /// Writes `mesh` as PLY: binary little endian, or ascii with `opts.ascii`.
 pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
+    use std::fmt::Write as _;
     let v = &mesh.vertices;
     let double = !positions_fit_f32(mesh);
     let long_faces = mesh.faces.iter().any(|f| f.len() > 255);
@@ -61,10 +62,10 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Resu
     h.push_str("ply\n");
     h.push_str(if opts.ascii { "format ascii 1.0\n" } else { "format binary_little_endian 1.0\n" });
     h.push_str("comment written by octowrap\n");
-    h.push_str(&format!("element vertex {}\n", v.len()));
+    let _ = writeln!(h, "element vertex {}", v.len());
     let coord = if double { "double" } else { "float" };
     for c in ["x", "y", "z"] {
-        h.push_str(&format!("property {coord} {c}\n"));
+        let _ = writeln!(h, "property {coord} {c}");
     }
     if v.normals.is_some() {
         h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
@@ -76,9 +77,9 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Resu
         h.push_str("property float intensity\n");
     }
     if !mesh.faces.is_empty() {
-        h.push_str(&format!("element face {}\n", mesh.faces.len()));
+        let _ = writeln!(h, "element face {}", mesh.faces.len());
         let count_ty = if long_faces { "int" } else { "uchar" };
-        h.push_str(&format!("property list {count_ty} {index_ty} vertex_indices\n"));
+        let _ = writeln!(h, "property list {count_ty} {index_ty} vertex_indices");
     }
     h.push_str("end_header\n");
     let io = |e| Error::io(e);
@@ -105,8 +106,8 @@ fn write_ascii(w: &mut dyn Write, mesh: &Mesh, double: bool) -> Result<()> {
         if let Some(n) = v.normals.as_ref().and_then(|n| n.get(i)) {
             let _ = write!(s, " {} {} {}", n.x, n.y, n.z);
         }
-        if let Some(c) = v.colors.as_ref().and_then(|c| c.get(i)) {
-            let _ = write!(s, " {} {} {}", c[0], c[1], c[2]);
+        if let Some([r, g, b]) = v.colors.as_ref().and_then(|c| c.get(i)) {
+            let _ = write!(s, " {r} {g} {b}");
         }
         if let Some(t) = v.intensities.as_ref().and_then(|t| t.get(i)) {
             let _ = write!(s, " {t}");

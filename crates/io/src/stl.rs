@@ -1,6 +1,6 @@
 //! STL (stereolithography): reading ascii and binary triangle files, writing either.
 //!
-//! Follows the format as 3D Systems defined it (*StereoLithography Interface Specification*,
+//! Follows the format as 3D Systems defined it (*`StereoLithography` Interface Specification*,
 //! 1989; summarised by Paul Bourke, <https://paulbourke.net/dataformats/stl/>):
 //! * binary: an 80-byte header, a little-endian `u32` triangle count, then 50 bytes per
 //!   triangle (normal, three vertices as `f32` triples, a 16-bit attribute word);
@@ -395,7 +395,7 @@ mod tests {
         let mut back = rd(&out).unwrap();
         back.weld_exact();
         assert_eq!(back.faces.iter().collect::<Vec<_>>(), vec![&[0, 1, 2][..], &[1, 3, 2]]);
-        assert_eq!(f32::from_le_bytes([out[84 + 8], out[85 + 8], out[86 + 8], out[87 + 8]]), 1.0, "facet normal +z");
+        assert_eq!(out[84 + 8..84 + 12], 1.0f32.to_le_bytes(), "facet normal +z");
         let e = write(&mut Vec::new(), &Mesh::from_positions(vec![DVec3::ZERO]), &WriteOptions::default()).unwrap_err();
         assert_eq!(e.kind, ErrorKind::Unsupported);
     }
@@ -417,8 +417,7 @@ mod tests {
         #[test]
         fn random_meshes_round_trip(m in arb_mesh(false, true), ascii in any::<bool>()) {
             prop_assume!(!m.faces.is_empty());
-            let mut w = WriteOptions::default();
-            w.ascii = ascii;
+            let w = WriteOptions { ascii, ..WriteOptions::default() };
             let mut out = Vec::new();
             write(&mut out, &m, &w).unwrap();
             let back = rd(&out).unwrap();

@@ -426,8 +426,8 @@ mod tests {
     fn token_cursor_counts_lines() {
         let mut t = Tokens::new(b"1 2\n\n 3\r\nx", 0, 1);
         assert_eq!(t.int("a").unwrap(), 1);
-        assert_eq!(t.f64("b").unwrap(), 2.0);
-        assert_eq!(t.f32("c").unwrap(), 3.0);
+        assert_eq!(t.f64("b").unwrap().to_bits(), 2.0f64.to_bits());
+        assert_eq!(t.f32("c").unwrap().to_bits(), 3.0f32.to_bits());
         assert_eq!(t.plain_uint(), None);
         let e = t.f64("d").unwrap_err();
         assert_eq!(e.location, Location::Line(4));

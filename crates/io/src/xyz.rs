@@ -104,7 +104,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
             colors.push([c(4)?, c(5)?, c(6)?]);
         }
     }
-    Ok(Mesh { vertices: cloud, faces: Default::default() })
+    Ok(Mesh { vertices: cloud, faces: octowrap_mesh::FaceList::default() })
 }
 
 /// Writes `mesh`'s points as XYZ (`x y z`, or `x y z nx ny nz` with normals).

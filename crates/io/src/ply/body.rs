@@ -382,7 +382,7 @@ impl<'a> Binary<'a> {
 
     fn skip_list(&mut self, count: Scalar, item: Scalar, name: &str) -> Result<()> {
         let c = self.list_len(count, name)?;
-        let bytes = c.checked_mul(item.size()).unwrap_or(usize::MAX);
+        let bytes = c.saturating_mul(item.size());
         self.take(bytes, &|| format!("the {c} values of list '{name}'"))?;
         Ok(())
     }
@@ -560,7 +560,7 @@ impl<'a> Binary<'a> {
 }
 
 /// Positions from fixed-size little-endian records with `float` x, y, z at the given offsets.
-#[inline(always)]
+#[inline]
 fn xyz_f32_le(body: &[u8], rs: usize, ox: usize, oy: usize, oz: usize, out: &mut Vec<DVec3>) {
     let f = |r: &[u8], o: usize| r.get(o..o + 4).map_or(0.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]));
     out.extend(

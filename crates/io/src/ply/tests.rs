@@ -137,8 +137,7 @@ fn every_prefix_of_the_samples_fails_cleanly() {
     m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
     for ascii in [false, true] {
         let mut out = Vec::new();
-        let mut w = WriteOptions::default();
-        w.ascii = ascii;
+        let w = WriteOptions { ascii, ..WriteOptions::default() };
         write(&mut out, &m, &w).unwrap();
         every_prefix(&out, read);
     }
@@ -197,8 +196,7 @@ fn bad_headers_say_where_and_what() {
 
 fn roundtrip(m: &Mesh, ascii: bool) -> Mesh {
     let mut out = Vec::new();
-    let mut w = WriteOptions::default();
-    w.ascii = ascii;
+    let w = WriteOptions { ascii, ..WriteOptions::default() };
     write(&mut out, m, &w).unwrap();
     rd(&out).unwrap_or_else(|e| panic!("{e}\n{}", String::from_utf8_lossy(&out[..out.len().min(600)])))
 }
@@ -211,9 +209,7 @@ fn write_read_keeps_everything() {
     m.faces.push(&[0, 2, 3]);
     m.faces.push_iter(0..300);
     m.vertices.positions.resize(300, DVec3::new(600_000.125, 1.0 / 3.0, -7.0));
-    for a in [m.vertices.colors.as_mut().unwrap()] {
-        a.resize(300, [9, 8, 7]);
-    }
+    m.vertices.colors.as_mut().unwrap().resize(300, [9, 8, 7]);
     m.vertices.intensities.as_mut().unwrap().resize(300, 0.1);
     m.vertices.normals = Some(vec![Vec3::new(0.1, 0.2, 0.3); 300]);
     for ascii in [false, true] {
