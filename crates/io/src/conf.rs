@@ -8,10 +8,15 @@
 //! * `camera tx ty tz qi qj qk qr`: the viewing camera of the session; ignored.
 //! * `bmesh FILE tx ty tz qi qj qk qr` (or `mesh FILE ...`): a scan and its pose, a translation
 //!   `t` and a unit quaternion `q = qr + qi i + qj j + qk k` (real part last). A point `p` of the
-//!   scan lies at `R(q) p + t` in the common frame (rotation first, then translation); normals
-//!   are rotated by `R(q)`. This is the convention under which the ten bunny scans line up with
-//!   Stanford's zippered reconstruction (checked by this module's tests: bounding boxes agree within
-//!   millimetres and overlapping scans lie within a fraction of a millimetre of each other).
+//!   scan lies at `R(q)ᵀ p + t` in the common frame: rotation first, then translation, where the
+//!   rotation is that of the *conjugate* quaternion (scanalyze builds the matrix of `q` and applies
+//!   it to row vectors, `pᵀ R(q)`). Normals are rotated likewise.
+//!
+//! The convention was settled on the data, not guessed: of the four readings (`R p + t`,
+//! `Rᵀ p + t`, `R (p + t)`, `Rᵀ (p − t)`), only `Rᵀ p + t` puts the ten bunny scans inside the
+//! bounding box of Stanford's zippered reconstruction (all but one stray point within 3 mm), with
+//! overlapping scans a third of a millimetre apart (median nearest-neighbour distance to `bun000`);
+//! the others leave scans centimetres off. This module's tests check it.
 //!
 //! Blank lines and lines starting with `#` are skipped; any other command is an error.
 //! `FILE` is relative to the `.conf` file's folder; when it is absent, `FILE.gz` is tried (the
@@ -99,7 +104,8 @@ fn parse(data: &[u8]) -> Result<Vec<Scan>> {
                 scans.push(Scan {
                     file: file.to_owned(),
                     translation: DVec3::new(v[0], v[1], v[2]),
-                    rotation: q / len,
+                    // The conjugate: see the module docs.
+                    rotation: (q / len).conjugate(),
                     line: lines.location(),
                 });
             }
@@ -209,6 +215,8 @@ mod tests {
         assert_eq!(s.len(), 1);
         assert_eq!(s[0].rotation, DQuat::IDENTITY, "normalised");
         assert_eq!(s[0].line, Location::Line(4));
+        let s = parse(b"bmesh a.ply 0 0 0 0 0 1 0\n").unwrap();
+        assert_eq!(s[0].rotation, DQuat::from_xyzw(0.0, 0.0, -1.0, 0.0), "conjugated");
         let e = parse(b"bmesh a.ply 1 2 3 0 0 0\n").unwrap_err();
         assert!(e.to_string().contains("no qr"), "{e}");
         assert_eq!(parse(b"bmesh a.ply 1 2 3 0 0 0 0\n").unwrap_err().location, Location::Line(1));
@@ -227,9 +235,10 @@ mod tests {
     #[test]
     fn merges_scans_with_poses_and_finds_gz() {
         // a.ply rotated 90° about z then shifted by (10, 0, 0); b.ply (gzipped) as is.
+        // The quaternion written is -90° about z; its conjugate, +90°, is applied.
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let (_dir, conf) =
-            scan_set(&format!("camera 0 0 0 0 0 0 1\nbmesh a.ply 10 0 0 0 0 {h} {h}\nbmesh b.ply 0 0 0 0 0 0 1\n"));
+            scan_set(&format!("camera 0 0 0 0 0 0 1\nbmesh a.ply 10 0 0 0 0 -{h} {h}\nbmesh b.ply 0 0 0 0 0 0 1\n"));
         let m = match crate::read_path(&conf, &opts()) {
             Ok(m) => m,
             Err(e) if e.message.contains("not implemented") => {
@@ -250,13 +259,13 @@ mod tests {
 
     #[test]
     fn errors_name_the_right_file_and_line() {
-        let (dir, conf) = scan_set("bmesh a.ply 0 0 0 0 0 0 1\nbmesh missing.ply 0 0 0 0 0 0 1\n");
+        let (dir, conf) =
+            scan_set("camera 0 0 0 0 0 0 1\nbmesh missing.ply 0 0 0 0 0 0 1\nbmesh a.ply 0 0 0 0 0 0 1\n");
         let e = crate::read_path(&conf, &opts()).unwrap_err();
         assert!(e.to_string().contains("missing.ply"), "{e}");
-        if e.kind == ErrorKind::Io {
-            assert_eq!(e.location, Location::Line(2), "{e}");
-            assert!(e.file.ends_with("set.conf"), "{e}");
-        }
+        assert_eq!(e.kind, ErrorKind::Io, "{e}");
+        assert_eq!(e.location, Location::Line(2), "{e}");
+        assert!(e.file.ends_with("set.conf"), "{e}");
         std::fs::write(dir.path().join("bad.ply"), "ply\nformat ascii 1.0\nelement vertex 5\nend_header\n").unwrap();
         std::fs::write(&conf, "bmesh bad.ply 0 0 0 0 0 0 1\n").unwrap();
         let e = crate::read_path(&conf, &opts()).unwrap_err();
@@ -325,19 +334,34 @@ mod tests {
             }
             Err(e) => panic!("{e}"),
         };
-        assert_eq!(m.vertices.len(), 362_872);
+        // PROVENANCE.md's per-scan counts (bun000 40,256 + bun045 40,097 + bun090 30,379 + bun180
+        // 40,251 + bun270 31,701 + bun315 35,336 + chin 37,738 + ear_back 32,193 + top2 38,298 +
+        // top3 36,023) add up to 362,272; its "Total 362,872" is a typo.
+        assert_eq!(m.vertices.len(), 362_272);
         let zipper = crate::read_path(&root.join("reconstruction/bun_zipper.ply"), &opts()).unwrap();
-        let (a, b) = (m.vertices.bounds(), zipper.vertices.bounds());
-        let off = (a.min - b.min).abs().max(a.max - b.max).abs().max_element();
-        assert!(off < 0.005, "merged scans' bbox {a:?} vs bun_zipper {b:?}: off by {off} m");
-        // Overlap: points of bun045 near bun000 should be within a fraction of a millimetre.
-        let bun000 = &m.vertices.positions[..40_256];
-        let bun045 = &m.vertices.positions[40_256..40_256 + 40_097];
-        let grid = Grid::new(bun000, 0.002);
-        let mut d: Vec<f64> = bun045.iter().filter_map(|&p| grid.nearest(p)).collect();
-        assert!(d.len() > 10_000, "overlap {}", d.len());
-        d.sort_by(f64::total_cmp);
-        let median = d[d.len() / 2];
-        assert!(median < 0.0005, "median nearest-neighbour distance {median} m");
+        let z = zipper.vertices.bounds();
+        // One stray point of ear_back lies 19 mm outside; every other point is within 3 mm of the
+        // reconstruction's box, and the box of those points matches it within 3 mm.
+        let (inside, outside): (Vec<DVec3>, Vec<DVec3>) =
+            m.vertices.positions.iter().partition(|p| !(p.cmplt(z.min - 0.003) | p.cmpgt(z.max + 0.003)).any());
+        assert!(outside.len() <= 3, "{} points outside bun_zipper's box: {outside:?}", outside.len());
+        let a = octowrap_geom::Aabb::from_points(&inside);
+        let off = (a.min - z.min).abs().max((a.max - z.max).abs()).max_element();
+        assert!(off < 0.003, "merged scans' box {a:?} vs bun_zipper's {z:?}: off by {off} m");
+        // Overlap: scans that see much of bun000's side lie within a fraction of a millimetre of it.
+        let mut start = 0;
+        let counts = [40_256, 40_097, 30_379, 40_251, 31_701, 38_298, 36_023, 35_336, 37_738, 32_193];
+        let grid = Grid::new(&m.vertices.positions[..counts[0]], 0.002);
+        for (k, n) in counts.into_iter().enumerate() {
+            let scan = &m.vertices.positions[start..start + n];
+            start += n;
+            let mut d: Vec<f64> = scan.iter().filter_map(|&p| grid.nearest(p)).collect();
+            if k == 0 || d.len() < 5_000 {
+                continue;
+            }
+            d.sort_by(f64::total_cmp);
+            let median = d[d.len() / 2];
+            assert!(median < 0.0005, "scan {k}: median nearest-neighbour distance to bun000 {median} m");
+        }
     }
 }
