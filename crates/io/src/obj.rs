@@ -216,7 +216,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::text::testing::{arb_mesh, every_prefix};
+    use crate::text::testing::{arb_mesh, every_prefix, mutated};
     use crate::{ErrorKind, Location};
 
     fn rd(data: &[u8]) -> Result<Mesh> {
@@ -281,6 +281,15 @@ mod tests {
         let mut out = Vec::new();
         write(&mut out, m, &WriteOptions::default()).unwrap();
         rd(&out).unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        #[test]
+        fn mutated_samples_never_panic(d in mutated(SAMPLE)) {
+            let _ = rd(&d);
+        }
     }
 
     proptest! {

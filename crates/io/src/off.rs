@@ -192,7 +192,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::text::testing::{arb_mesh, every_prefix};
+    use crate::text::testing::{arb_mesh, every_prefix, mutated};
     use crate::{ErrorKind, Location};
 
     fn rd(data: &[u8]) -> Result<Mesh> {
@@ -248,6 +248,15 @@ mod tests {
     fn every_prefix_fails_cleanly() {
         every_prefix(SAMPLE, read);
         every_prefix(b"CNOFF 2 1 0\n0 0 0 0 0 1 1 2 3 4\n1 1 1 0 1 0 5 6 7 8\n3 0 1 1\n", read);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        #[test]
+        fn mutated_samples_never_panic(d in mutated(SAMPLE)) {
+            let _ = rd(&d);
+        }
     }
 
     proptest! {

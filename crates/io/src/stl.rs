@@ -305,7 +305,7 @@ mod tests {
 
     use super::*;
     use crate::ErrorKind;
-    use crate::text::testing::{arb_mesh, every_prefix};
+    use crate::text::testing::{arb_mesh, every_prefix, mutated};
 
     fn rd(data: &[u8]) -> Result<Mesh> {
         read(data, &ReadOptions::default())
@@ -403,6 +403,15 @@ mod tests {
     /// The triangles of `m` as position triples, for comparing meshes up to vertex numbering.
     fn soup(m: &Mesh) -> Vec<[DVec3; 3]> {
         triangles(m).iter().map(|t| t.map(|i| m.vertices.positions[i as usize])).collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        #[test]
+        fn mutated_samples_never_panic(d in mutated(ASCII)) {
+            let _ = rd(&d);
+        }
     }
 
     proptest! {

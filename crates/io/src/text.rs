@@ -530,6 +530,27 @@ pub(crate) mod testing {
         (0..data.len()).filter(|&n| read(&data[..n], &opts).is_ok()).count()
     }
 
+    /// `sample` with 1-8 random edits (a byte replaced, inserted or removed), the bytes biased
+    /// towards digits, signs and separators so that counts and indices change meaningfully.
+    pub(crate) fn mutated(sample: &'static [u8]) -> impl Strategy<Value = Vec<u8>> {
+        let byte = prop_oneof![any::<u8>(), prop::sample::select(b"0123456789 -\n.e+#/\\".to_vec())];
+        prop::collection::vec((any::<prop::sample::Index>(), byte, 0u8..3), 1..8).prop_map(move |edits| {
+            let mut d = sample.to_vec();
+            for (i, b, op) in edits {
+                let k = i.index(d.len() + 1);
+                match op {
+                    0 if k < d.len() => d[k] = b,
+                    1 => d.insert(k, b),
+                    _ if k < d.len() => {
+                        d.remove(k);
+                    }
+                    _ => {}
+                }
+            }
+            d
+        })
+    }
+
     /// A random mesh: 0-12 vertices with optional attributes, and polygons of 3-6 corners.
     pub(crate) fn arb_mesh(attributes: bool, faces: bool) -> impl Strategy<Value = Mesh> {
         let coord = prop_oneof![

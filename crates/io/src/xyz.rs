@@ -132,7 +132,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::text::testing::{arb_mesh, every_prefix};
+    use crate::text::testing::{arb_mesh, every_prefix, mutated};
     use crate::{ErrorKind, Location};
 
     fn rd(data: &[u8]) -> Result<Mesh> {
@@ -176,6 +176,15 @@ mod tests {
     fn every_prefix_fails_cleanly() {
         every_prefix(b"2\n1 2 3 -120 10 20 30\n4 5 6 7 255 0 1\n", read);
         every_prefix(b"1.5 2 3 0 0 1\n4 5 6e-3 0 1 0\n", read);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        #[test]
+        fn mutated_samples_never_panic(d in mutated(b"3\n1 2 3 -120 10 20 30\n4 5 6 7 255 0 1\n1,2,3,4,5,6,7\n")) {
+            let _ = rd(&d);
+        }
     }
 
     proptest! {

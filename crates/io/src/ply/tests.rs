@@ -3,7 +3,7 @@ use octowrap_mesh::FaceList;
 use proptest::prelude::*;
 
 use super::*;
-use crate::text::testing::{arb_mesh, every_prefix};
+use crate::text::testing::{arb_mesh, every_prefix, mutated};
 use crate::{ErrorKind, Location, ReadOptions, WriteOptions};
 
 fn rd(data: &[u8]) -> Result<Mesh> {
@@ -230,6 +230,57 @@ fn float_positions_are_written_as_float() {
     assert!(!String::from_utf8_lossy(&out).contains("element face"));
     assert_eq!(roundtrip(&m, false), m);
     assert_eq!(roundtrip(&m, true), m);
+}
+
+/// A small binary file with every kind of element: a camera with a list, vertices with normals
+/// and colours, faces with extra properties.
+fn binary_sample() -> &'static [u8] {
+    static SAMPLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    SAMPLE.get_or_init(|| {
+        let mut m = rd(ASCII).unwrap();
+        m.vertices.normals = Some(vec![Vec3::X; 4]);
+        m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+        let mut out = Vec::new();
+        write(&mut out, &m, &WriteOptions::default()).unwrap();
+        let at = out.windows(13).position(|w| w == b"element face ").unwrap();
+        out.splice(
+            at..at,
+            b"element camera 1
+property list uchar float k
+"
+            .iter()
+            .copied(),
+        );
+        let body = out
+            .windows(11)
+            .position(|w| {
+                w == b"end_header
+"
+            })
+            .unwrap()
+            + 11;
+        let vertex_bytes = 4 * (12 + 12 + 3 + 4);
+        out.splice(body + vertex_bytes..body + vertex_bytes, [1u8, 0, 0, 128, 63]);
+        out
+    })
+}
+
+#[test]
+fn binary_sample_reads_and_every_prefix_fails_cleanly() {
+    let m = rd(binary_sample()).unwrap();
+    assert_eq!(m.faces.face(0), &[0, 1, 2, 3]);
+    assert_eq!(m.vertices.normals.as_ref().unwrap()[3], Vec3::X);
+    assert_eq!(every_prefix(binary_sample(), read), 0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    #[test]
+    fn mutated_samples_never_panic(a in mutated(ASCII), b in mutated(binary_sample())) {
+        let _ = rd(&a);
+        let _ = rd(&b);
+    }
 }
 
 proptest! {
