@@ -85,12 +85,6 @@ impl Cells {
         self.starts[i] as usize..self.starts[i + 1] as usize
     }
 
-    /// Number of points in voxel `i`.
-    #[inline]
-    pub(crate) fn count(&self, i: usize) -> usize {
-        (self.starts[i + 1] - self.starts[i]) as usize
-    }
-
     /// Median number of points per occupied voxel.
     pub(crate) fn median_count(&self) -> f64 {
         let mut c: Vec<u32> = self.starts.windows(2).map(|w| w[1] - w[0]).collect();

@@ -64,12 +64,6 @@ pub(crate) struct Mask {
 }
 
 impl Mask {
-    /// A mask allowing everything (level 0, or when disabled).
-    pub(crate) fn open(cells: &Cells) -> Self {
-        let s = Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable };
-        Self { sheets: vec![s; cells.len()], voxel: cells.voxel() }
-    }
-
     /// Whether slot `(cell, side)` of voxel `coords` may carry a face.
     #[inline]
     pub(crate) fn allows(&self, cell: usize, coords: [u32; 3], side: Side) -> bool {
@@ -97,8 +91,9 @@ impl Mask {
 /// Whether `points` lie in two layers along `n`: sorted by height over the plane `(m, n)`, some
 /// gap between consecutive heights is wider than a twentieth of a voxel and than three times the
 /// largest gap expected from uniform sampling (`ln k` mean gaps), with at least a tenth of the
-/// points (and 2) on either side. A single sheet, noisy or curved, has no such gap; both sides of a
-/// thin plate, or a plate with the foot of a pillar, do.
+/// points (and 2) on either side; or, with the thin plate's rim filling the gap, fewer than a fifth of
+/// the points lie within half the RMS height of the plane. A single sheet, noisy or curved, has
+/// neither; both sides of a thin plate do.
 fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) -> bool {
     let k = points.len();
     if k < 6 {
@@ -109,10 +104,17 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
     let range = d[k - 1] - d[0];
     let need = 3.0 * (k as f64).ln() * range / k as f64;
     let side = (k / 10).max(2);
-    (side..=k - side).any(|i| {
+    let gap = (side..=k - side).any(|i| {
         let gap = d[i] - d[i - 1];
         gap > 0.05 * h && gap > need
-    })
+    });
+    // A valley rather than a gap (the rim of a thin plate samples the space between its sides):
+    // under a fifth of the points within half the RMS height of the plane, some on either side.
+    let r = (d.iter().map(|x| x * x).sum::<f64>() / k as f64).sqrt();
+    let near = d.iter().filter(|x| x.abs() < 0.5 * r).count();
+    let (below, above) = (d.iter().filter(|&&x| x <= -0.5 * r).count(), d.iter().filter(|&&x| x >= 0.5 * r).count());
+    let valley = r > 0.05 * h && 5 * near < k && below >= side && above >= side;
+    gap || valley
 }
 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
