@@ -684,3 +684,25 @@ pub mod fuzzing {
         Some(out)
     }
 }
+
+#[doc(hidden)]
+pub mod tamper {
+    //! Byte surgery for building invalid conformance files.
+
+    /// Recomputes the preamble checksum of `bytes` in place (after editing header, table or
+    /// metadata bytes). Returns `false` when the preamble cannot be located.
+    pub fn fix_preamble_checksum(bytes: &mut [u8]) -> bool {
+        if bytes.len() < super::HEADER_SIZE {
+            return false;
+        }
+        let levels = u32::from_le_bytes(bytes[16..20].try_into().expect("4 bytes")) as usize;
+        let meta = u32::from_le_bytes(bytes[104..108].try_into().expect("4 bytes")) as usize;
+        let end = super::HEADER_SIZE + super::ENTRY_SIZE * levels + meta;
+        if bytes.len() < end + 8 {
+            return false;
+        }
+        let sum = xxhash_rust::xxh3::xxh3_64(&bytes[..end]);
+        bytes[end..end + 8].copy_from_slice(&sum.to_le_bytes());
+        true
+    }
+}
