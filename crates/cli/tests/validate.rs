@@ -44,7 +44,7 @@ fn defects_fail_with_exit_1_and_a_json_report() {
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let files = v["files"].as_array().unwrap();
-    assert_eq!(files.len(), 7);
+    assert_eq!(files.len(), 8);
     let nm = files.iter().find(|f| f["file"].as_str().unwrap().ends_with("three_faces_one_edge.obj")).unwrap();
     assert_eq!(nm["outcome"]["counts"]["non_manifold_edges"], 1);
     assert_eq!(nm["outcome"]["findings"][0]["code"], "E-NONMANIFOLD-EDGE");

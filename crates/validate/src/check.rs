@@ -305,7 +305,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         && counts.out_of_range_faces == 0
         && counts.non_manifold_edges == 0
         && counts.non_manifold_vertices == 0;
-    let properties = Properties {
+    let mut properties = Properties {
         manifold,
         oriented: manifold && counts.orientation_conflicts == 0,
         closed: counts.boundary_edges == 0,
@@ -314,7 +314,19 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             && counts.degenerate_faces == 0
             && counts.zero_area_faces == 0
             && counts.duplicate_faces == 0,
+        intersection_free: None,
     };
+    if opts.self_intersections {
+        let pairs = crate::intersect::self_intersections(mesh, &usable);
+        counts.self_intersections = Some(pairs.len());
+        properties.intersection_free = Some(pairs.is_empty());
+        out.add(
+            Code::SelfIntersection,
+            pairs.iter().map(|&(f, g)| Element::Faces(f, g)),
+            pairs.len(),
+            format!("{} pairs of faces intersect", pairs.len()),
+        );
+    }
     let mut findings = out.findings;
     findings.sort_by_key(|f| (f.severity, Code::ALL.iter().position(|c| *c == f.code)));
     MeshReport {

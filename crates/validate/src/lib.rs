@@ -26,6 +26,9 @@
 //! * **Closed**: no boundary edges.
 //! * **Watertight**: manifold and closed. (Orientation is a separate property: require both.)
 //! * **Clean**: finite coordinates, no degenerate (repeated-index), zero-area or duplicate faces.
+//! * **Intersection-free** (checked on request): no two faces share a point beyond the edge or
+//!   vertex they have in common. Faces are fan-triangulated for the test and decided with exact
+//!   predicates, so coplanar and touching faces give no false positives (see `intersect.rs`).
 //! * **Component**: a maximal set of faces connected through shared vertices. Its **Euler
 //!   characteristic** is `χ = V − E + F` over its used vertices, distinct edges and faces; a closed,
 //!   manifold, oriented component has genus `(2 − χ) / 2`.
@@ -50,6 +53,7 @@
 
 mod check;
 mod dsu;
+mod intersect;
 mod output;
 mod report;
 
@@ -68,11 +72,13 @@ pub struct Options {
     /// Merge vertices with bit-equal positions before the topology checks (STL stores every
     /// triangle corner separately, so its topology exists only after welding). Default false.
     pub weld: bool,
+    /// Also look for faces that cross or overlap (exact predicates; slower). Default false.
+    pub self_intersections: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self { max_elements: 100, weld: false }
+        Self { max_elements: 100, weld: false, self_intersections: false }
     }
 }
 

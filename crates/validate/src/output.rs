@@ -22,7 +22,7 @@ pub enum Format {
 
 /// A property that `--require` can demand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "kebab-case")]
 pub enum Requirement {
     /// See [`Properties::manifold`].
     Manifold,
@@ -34,11 +34,14 @@ pub enum Requirement {
     Watertight,
     /// See [`Properties::clean`].
     Clean,
+    /// See [`Properties::intersection_free`]; requiring it turns the check on.
+    IntersectionFree,
 }
 
 impl Requirement {
     /// Every requirement.
-    pub const ALL: [Self; 5] = [Self::Manifold, Self::Oriented, Self::Closed, Self::Watertight, Self::Clean];
+    pub const ALL: [Self; 6] =
+        [Self::Manifold, Self::Oriented, Self::Closed, Self::Watertight, Self::Clean, Self::IntersectionFree];
 
     /// The lowercase name.
     pub fn name(self) -> &'static str {
@@ -48,6 +51,7 @@ impl Requirement {
             Self::Closed => "closed",
             Self::Watertight => "watertight",
             Self::Clean => "clean",
+            Self::IntersectionFree => "intersection-free",
         }
     }
 
@@ -59,6 +63,7 @@ impl Requirement {
             Self::Closed => p.closed,
             Self::Watertight => p.watertight,
             Self::Clean => p.clean,
+            Self::IntersectionFree => p.intersection_free == Some(true),
         }
     }
 }
@@ -135,6 +140,7 @@ fn element_name(e: Element) -> String {
         Element::Vertex(v) => format!("vertex {v}"),
         Element::Face(f) => format!("face {f}"),
         Element::Edge(a, b) => format!("edge {a}-{b}"),
+        Element::Faces(a, b) => format!("faces {a} & {b}"),
     }
 }
 
@@ -202,6 +208,9 @@ fn write_mesh_text(w: &mut dyn Write, m: &MeshReport, indent: &str) -> io::Resul
         yes(p.watertight),
         yes(p.clean)
     )?;
+    if let Some(free) = p.intersection_free {
+        writeln!(w, "{indent}intersection-free {}", yes(free))?;
+    }
     let genera: Vec<String> = m.components.iter().filter_map(|c| c.genus).map(|g| g.to_string()).collect();
     if !genera.is_empty() {
         writeln!(w, "{indent}genus of closed components: {}", genera.join(", "))?;

@@ -47,17 +47,21 @@ pub enum Code {
     /// A hierarchy level's parent links are broken.
     #[serde(rename = "E-PARENT-LINK")]
     ParentLink,
+    /// Two faces cross or overlap beyond the edge or vertex they share.
+    #[serde(rename = "E-SELF-INTERSECTION")]
+    SelfIntersection,
 }
 
 impl Code {
     /// Every code, in report order.
-    pub const ALL: [Self; 13] = [
+    pub const ALL: [Self; 14] = [
         Self::IndexRange,
         Self::FaceSize,
         Self::NonFiniteVertex,
         Self::NonManifoldEdge,
         Self::NonManifoldVertex,
         Self::Orientation,
+        Self::SelfIntersection,
         Self::ParentLink,
         Self::DegenerateFace,
         Self::ZeroAreaFace,
@@ -83,6 +87,7 @@ impl Code {
             Self::UnusedVertex => "W-UNUSED-VERTEX",
             Self::BoundaryEdge => "I-BOUNDARY-EDGE",
             Self::ParentLink => "E-PARENT-LINK",
+            Self::SelfIntersection => "E-SELF-INTERSECTION",
         }
     }
 
@@ -111,6 +116,7 @@ impl Code {
             Self::UnusedVertex => "vertex used by no face",
             Self::BoundaryEdge => "edge with a single face (a boundary or hole)",
             Self::ParentLink => "face's parent link or quadrant is invalid",
+            Self::SelfIntersection => "two faces cross or overlap beyond what they share",
         }
     }
 }
@@ -143,6 +149,8 @@ pub enum Element {
     Face(u32),
     /// An edge, as its two vertex indices (smaller first).
     Edge(u32, u32),
+    /// A pair of faces (smaller first).
+    Faces(u32, u32),
 }
 
 /// One kind of defect found, with how many and (up to a cap) which elements.
@@ -189,6 +197,8 @@ pub struct Counts {
     pub out_of_range_faces: usize,
     /// Faces with fewer than 3 vertices.
     pub short_faces: usize,
+    /// Pairs of faces that intersect; absent unless the (slower) check was asked for.
+    pub self_intersections: Option<usize>,
 }
 
 /// Topology of one connected component (faces joined through shared vertices).
@@ -225,6 +235,8 @@ pub struct Properties {
     pub watertight: bool,
     /// Finite coordinates, no degenerate, zero-area or duplicate faces.
     pub clean: bool,
+    /// No two faces intersect beyond what they share; absent unless the check was asked for.
+    pub intersection_free: Option<bool>,
 }
 
 /// The full result for one mesh.

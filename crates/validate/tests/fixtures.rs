@@ -78,6 +78,43 @@ fn defect_fixtures() {
 }
 
 #[test]
+fn self_intersections_are_found_exactly() {
+    let mut o = Options::default();
+    o.self_intersections = true;
+    let mesh = read_path(&fixture("defects/crossing_quads.obj"), &ReadOptions::default()).unwrap();
+    let r = validate_mesh(&mesh, &o);
+    assert_eq!(r.counts.self_intersections, Some(1));
+    assert_eq!(r.properties.intersection_free, Some(false));
+    assert_eq!(r.findings[0].elements, vec![octowrap_validate::Element::Faces(0, 1)]);
+    // Valid meshes touch only along shared edges and at shared vertices: no false positives,
+    // including the coplanar neighbours of the flat cube faces.
+    for name in ["valid/cube_quads.obj", "valid/torus_quads.obj", "valid/open_box.obj"] {
+        let mesh = read_path(&fixture(name), &ReadOptions::default()).unwrap();
+        assert_eq!(validate_mesh(&mesh, &o).counts.self_intersections, Some(0), "{name}");
+    }
+    // Without the option the check does not run.
+    assert_eq!(validate_mesh(&mesh, &Options::default()).counts.self_intersections, None);
+}
+
+#[test]
+fn clean_closed_shared_meshes_are_intersection_free() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/cgal-data/meshes");
+    let mut o = Options::default();
+    o.self_intersections = true;
+    for name in ["elephant.off", "armadillo.off", "bunny00.off"] {
+        let path = root.join(name);
+        if !path.is_file() {
+            eprintln!("SKIPPED: {} is absent", path.display());
+            continue;
+        }
+        let r = check(&path, false);
+        assert!(r.properties.watertight && r.properties.oriented, "{name}");
+        let mesh = read_path(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(validate_mesh(&mesh, &o).counts.self_intersections, Some(0), "{name}");
+    }
+}
+
+#[test]
 fn broken_indices_are_described_not_rejected() {
     let r = check(&fixture("defects/out_of_range.off"), false);
     assert_eq!((r.counts.out_of_range_faces, r.counts.short_faces), (1, 1));

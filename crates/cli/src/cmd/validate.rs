@@ -27,10 +27,12 @@ use super::input::InputArgs;
 ///   closed         no boundary edges
 ///   watertight     manifold and closed (ask for `oriented` too if winding matters)
 ///   clean          finite coordinates; no repeated-index, zero-area or duplicate faces
+///   intersection-free  no two faces share a point beyond their common edge or vertex
+///                  (checked with --self-intersections; exact predicates)
 ///
 /// Issue codes are stable: E-INDEX-RANGE, E-FACE-SIZE, E-NONFINITE-VERTEX, E-NONMANIFOLD-EDGE,
 /// E-NONMANIFOLD-VERTEX, E-ORIENTATION, W-DEGENERATE-FACE, W-ZERO-AREA-FACE, W-DUPLICATE-FACE,
-/// W-DUPLICATE-VERTEX, W-UNUSED-VERTEX, I-BOUNDARY-EDGE.
+/// W-DUPLICATE-VERTEX, W-UNUSED-VERTEX, I-BOUNDARY-EDGE, E-SELF-INTERSECTION.
 ///
 /// Exit codes: 0 every file meets every required property; 1 a required property fails;
 /// 2 a file could not be read.
@@ -46,7 +48,8 @@ pub struct Args {
     /// Mesh files (PLY, OBJ, OFF, STL) or directories to search for them.
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
-    /// Properties that must hold, comma-separated: manifold, oriented, closed, watertight, clean.
+    /// Properties that must hold, comma-separated: manifold, oriented, closed, watertight, clean,
+    /// intersection-free.
     #[arg(long, value_delimiter = ',', default_value = "manifold", value_name = "PROPERTY,...")]
     pub require: Vec<RequireArg>,
     /// Machine-readable report on standard output.
@@ -56,6 +59,10 @@ pub struct Args {
     /// (STL stores every triangle corner separately).
     #[arg(long, default_value = "auto", value_name = "WHEN")]
     pub weld: Weld,
+    /// Also look for faces that cross or overlap each other (exact predicates: coplanar and
+    /// touching faces give no false positives; slower than the other checks).
+    #[arg(long)]
+    pub self_intersections: bool,
     /// Most offending elements listed per finding (counts are always complete).
     #[arg(long, default_value_t = 100, value_name = "N")]
     pub max_elements: usize,
@@ -79,6 +86,8 @@ pub enum RequireArg {
     Watertight,
     /// No degenerate, zero-area or duplicate faces; finite coordinates.
     Clean,
+    /// No faces crossing or overlapping (turns on --self-intersections).
+    IntersectionFree,
 }
 
 impl From<RequireArg> for Requirement {
@@ -89,6 +98,7 @@ impl From<RequireArg> for Requirement {
             RequireArg::Closed => Self::Closed,
             RequireArg::Watertight => Self::Watertight,
             RequireArg::Clean => Self::Clean,
+            RequireArg::IntersectionFree => Self::IntersectionFree,
         }
     }
 }
@@ -130,6 +140,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 Ok((format, mesh)) => {
                     let mut o = Options::default();
                     o.max_elements = args.max_elements;
+                    o.self_intersections = args.self_intersections || required.contains(&Requirement::IntersectionFree);
                     o.weld = match args.weld {
                         Weld::Always => true,
                         Weld::Never => false,
