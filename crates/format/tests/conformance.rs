@@ -225,6 +225,9 @@ fn regress_files_match_their_dumps() {
 
 #[test]
 fn the_encoder_still_writes_the_valid_files() {
+    if regen() {
+        return; // the other tests are rewriting the files
+    }
     for (name, bytes) in valid_set().into_iter().chain(regress_set()) {
         let sub = if name.starts_with("names_without") { "regress" } else { "valid" };
         let on_disk = std::fs::read(dir(sub).join(format!("{name}.mrq"))).unwrap();
