@@ -234,7 +234,10 @@ mod tests {
                         let b = offset(v, add(step(t), step(d)), level).unwrap();
                         let vd = offset(v, step(d), level).unwrap();
                         let occ = |c: u64| {
-                            c == v || (c == a && mask & 1 != 0) || (c == b && mask & 2 != 0) || (c == vd && mask & 4 != 0)
+                            c == v
+                                || (c == a && mask & 1 != 0)
+                                || (c == b && mask & 2 != 0)
+                                || (c == vd && mask & 4 != 0)
                         };
                         if occ(vd) {
                             continue;

@@ -95,7 +95,7 @@ use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, 
 
 use crate::irregular::Decisions;
 use crate::keymap::KeyMap;
-use crate::lattice::{unslot, MAX_LEVEL};
+use crate::lattice::{MAX_LEVEL, unslot};
 use crate::octree::{Octree, voxel_size};
 
 /// The deepest level supported (slot keys pack a level-`j` Morton code in `3 j + 3` bits).
@@ -149,7 +149,13 @@ pub struct ReconOptions {
 
 impl Default for ReconOptions {
     fn default() -> Self {
-        Self { max_level: MaxLevel::Auto, relax_passes: 0, padding: 0.01, min_median_points: 8.0, sparse: SparseMode::Subdivide }
+        Self {
+            max_level: MaxLevel::Auto,
+            relax_passes: 0,
+            padding: 0.01,
+            min_median_points: 8.0,
+            sparse: SparseMode::Subdivide,
+        }
     }
 }
 
@@ -376,7 +382,8 @@ pub fn reconstruct_with(
     // Level 0: the root cube.
     let root_slots: Vec<u64> = (0..6u8).map(|d| lattice::slot(0, d)).collect();
     let (ex, _) = extract::extract(&root_slots, &Decisions::new(&tree.levels[0]));
-    let root_pos: Vec<DVec3> = ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect();
+    let root_pos: Vec<DVec3> =
+        ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect();
     let mut prev = LevelState {
         slots: root_slots,
         quads: ex.quads,
@@ -469,7 +476,13 @@ pub fn reconstruct_with(
             let t = Instant::now();
             let s = sparse::subdivide(&prev.quads, &prev.corners, &prev.slots, &prev.positions);
             rep.timings.irregular = t.elapsed();
-            LevelState { slots: s.slots, quads: s.quads, corners: s.corners, positions: s.positions, origins: s.origins }
+            LevelState {
+                slots: s.slots,
+                quads: s.quads,
+                corners: s.corners,
+                positions: s.positions,
+                origins: s.origins,
+            }
         };
         let mut next = next;
         // §3.6: vertex mapping.

@@ -125,7 +125,8 @@ pub(crate) struct Octree {
 impl Octree {
     /// Sorts the points and builds level 0. `points` must be finite and non-empty.
     pub(crate) fn new(points: &[DVec3], padding: f64) -> Self {
-        let cube = Aabb::from_points(points).bounding_cube(padding).unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE });
+        let cube =
+            Aabb::from_points(points).bounding_cube(padding).unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE });
         let frame = Frame { origin: cube.min, edge: cube.size().x };
         let inv = 1.0 / frame.edge;
         let full = f64::from(1u32 << CODE_BITS);
@@ -151,13 +152,8 @@ impl Octree {
         let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
         drop(pairs);
         let n = local.len() as u32;
-        let root = Cells {
-            level: 0,
-            keys: vec![0],
-            starts: vec![0, n],
-            moments: Vec::new(),
-            index: KeyMap::from_keys(&[0]),
-        };
+        let root =
+            Cells { level: 0, keys: vec![0], starts: vec![0, n], moments: Vec::new(), index: KeyMap::from_keys(&[0]) };
         Self { frame, points: local, codes, levels: vec![root], distinct }
     }
 
@@ -174,7 +170,9 @@ impl Octree {
         let n = codes.len();
         let mut starts: Vec<u32> = Vec::with_capacity(self.levels[level as usize - 1].len() * 4 + 2);
         starts.push(0);
-        starts.par_extend((1..n).into_par_iter().filter(|&i| codes[i] >> shift != codes[i - 1] >> shift).map(|i| i as u32));
+        starts.par_extend(
+            (1..n).into_par_iter().filter(|&i| codes[i] >> shift != codes[i - 1] >> shift).map(|i| i as u32),
+        );
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
         let index = KeyMap::from_keys(&keys);

@@ -24,9 +24,8 @@ use crate::sheet::Mask;
 /// The subfaces of `coarse_slots` (level `j`, sorted, face `i` = slot `i`) on level `fine.level`,
 /// sorted by slot key, with their origins.
 pub(crate) fn refine(coarse_slots: &[u64], coarse_index: &KeyMap, fine: &Cells, mask: &Mask) -> Vec<(u64, FaceOrigin)> {
-    let allowed = |code: u64, side: Side| -> bool {
-        fine.find(code).is_some_and(|i| mask.allows(i, morton::decode(code), side))
-    };
+    let allowed =
+        |code: u64, side: Side| -> bool { fine.find(code).is_some_and(|i| mask.allows(i, morton::decode(code), side)) };
     let mut out: Vec<(u64, FaceOrigin)> = coarse_slots
         .par_iter()
         .enumerate()

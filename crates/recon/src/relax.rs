@@ -17,10 +17,8 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
         return;
     }
     let n = positions.len();
-    let mut edges: Vec<(u32, u32)> = quads
-        .iter()
-        .flat_map(|q| (0..4).flat_map(move |k| [(q[k], q[(k + 1) % 4]), (q[(k + 1) % 4], q[k])]))
-        .collect();
+    let mut edges: Vec<(u32, u32)> =
+        quads.iter().flat_map(|q| (0..4).flat_map(move |k| [(q[k], q[(k + 1) % 4]), (q[(k + 1) % 4], q[k])])).collect();
     edges.par_sort_unstable();
     edges.dedup();
     let mut first = vec![0u32; n + 1];

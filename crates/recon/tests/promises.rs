@@ -113,7 +113,10 @@ fn two_parallel_sheets_are_not_joined_across_the_gap() {
         for (n, c) in &frames {
             assert!(!(c.z > 0.03 && c.z < 0.09), "level {j}: a face between the sheets at {c}");
             // No face looks into the gap.
-            assert!(!(c.z > 0.06 && n.z < -0.7) && !(c.z < 0.06 && n.z > 0.7), "level {j}: face at {c} looks into the gap");
+            assert!(
+                !(c.z > 0.06 && n.z < -0.7) && !(c.z < 0.06 && n.z > 0.7),
+                "level {j}: face at {c} looks into the gap"
+            );
         }
         assert_eq!(tops[j].components, 2, "level {j}");
     }

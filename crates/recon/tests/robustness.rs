@@ -1,0 +1,112 @@
+//! Bad input never panics: a clear error or a valid mesh. Same output for 1 and 2 threads.
+
+mod support;
+
+use octowrap_geom::DVec3;
+use octowrap_recon::{MaxLevel, ReconError, ReconOptions, reconstruct};
+use support::check_manifold;
+
+fn level(n: u32) -> ReconOptions {
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(n);
+    o
+}
+
+fn valid_or_error(name: &str, pts: &[DVec3]) {
+    for o in [ReconOptions::default(), level(5)] {
+        match reconstruct(pts, &o) {
+            Ok(h) => {
+                h.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
+                for (j, l) in h.levels.iter().enumerate() {
+                    check_manifold(&l.mesh).unwrap_or_else(|e| panic!("{name} level {j}: {e}"));
+                    assert!(l.mesh.vertices.positions.iter().all(|p| p.is_finite()), "{name} level {j}");
+                }
+            }
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+    }
+}
+
+#[test]
+fn empty_single_and_equal_points_are_errors() {
+    assert_eq!(reconstruct(&[], &ReconOptions::default()), Err(ReconError::Empty));
+    assert_eq!(
+        reconstruct(&[DVec3::ONE], &ReconOptions::default()),
+        Err(ReconError::TooFewDistinct { distinct: 1, needed: 3 })
+    );
+    let same = vec![DVec3::new(1.0, 2.0, 3.0); 1000];
+    assert!(matches!(
+        reconstruct(&same, &ReconOptions::default()),
+        Err(ReconError::TooFewDistinct { distinct: 1, .. })
+    ));
+    let two = [DVec3::ZERO, DVec3::ONE, DVec3::ZERO];
+    assert!(matches!(reconstruct(&two, &ReconOptions::default()), Err(ReconError::TooFewDistinct { distinct: 2, .. })));
+}
+
+#[test]
+fn non_finite_points_are_rejected_with_their_count() {
+    let mut pts = support::sphere(500);
+    pts[3].x = f64::NAN;
+    pts[10].z = f64::INFINITY;
+    pts[11].y = f64::NEG_INFINITY;
+    let e = reconstruct(&pts, &ReconOptions::default()).unwrap_err();
+    assert_eq!(e, ReconError::NonFinite { count: 3, total: 500 });
+    assert!(e.to_string().contains("3 of 500"));
+}
+
+#[test]
+fn bad_levels_are_rejected() {
+    let pts = support::sphere(500);
+    assert!(matches!(reconstruct(&pts, &level(0)), Err(ReconError::BadLevel { requested: 0, .. })));
+    assert!(matches!(reconstruct(&pts, &level(99)), Err(ReconError::BadLevel { requested: 99, .. })));
+}
+
+#[test]
+fn degenerate_clouds_give_valid_meshes() {
+    let line: Vec<DVec3> = (0..2000).map(|i| DVec3::new(f64::from(i) * 0.01, 0.0, 0.0)).collect();
+    valid_or_error("collinear", &line);
+    let plane: Vec<DVec3> = (0..4000).map(|i| DVec3::new(f64::from(i % 64), f64::from(i / 64), 5.0)).collect();
+    valid_or_error("flat plane", &plane);
+    let three = [DVec3::ZERO, DVec3::X, DVec3::Y];
+    valid_or_error("three points", &three);
+    let mut dups = support::sphere(300);
+    for i in 0..30_000 {
+        dups.push(dups[i % 7]);
+    }
+    valid_or_error("heavy duplicates", &dups);
+    let far: Vec<DVec3> =
+        support::sphere(3000).into_iter().map(|p| p * 0.01 + DVec3::new(6.0e5, 5.0e6, 120.0)).collect();
+    valid_or_error("georeferenced", &far);
+    let huge: Vec<DVec3> = support::sphere(3000).into_iter().map(|p| p * 1e300).collect();
+    valid_or_error("huge", &huge);
+    let tiny: Vec<DVec3> = support::sphere(3000).into_iter().map(|p| p * 1e-300).collect();
+    valid_or_error("tiny", &tiny);
+    let mut rng = support::Rng(5);
+    let noise: Vec<DVec3> = (0..5000).map(|_| DVec3::new(rng.unit(), rng.unit(), rng.unit())).collect();
+    valid_or_error("uniform noise", &noise);
+    let clusters: Vec<DVec3> = (0..3000).map(|i| if i % 2 == 0 { DVec3::ZERO } else { DVec3::splat(1e6) } + DVec3::new(f64::from(i % 13) * 1e-3, f64::from(i % 7) * 1e-3, 0.0)).collect();
+    valid_or_error("two far clusters", &clusters);
+}
+
+#[test]
+fn same_output_for_one_and_two_threads() {
+    let mut pts = support::torus(30_000, 1.0, 0.35);
+    pts.extend(support::bowl(20_000, 0.2).into_iter().map(|p| p * 0.5 + DVec3::new(0.0, 0.0, 1.0)));
+    let mut o = level(7);
+    o.relax_passes = 2;
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("pool").install(|| reconstruct(&pts, &o))
+    };
+    let one = run(1).expect("reconstructs");
+    let two = run(2).expect("reconstructs");
+    assert_eq!(one.levels.len(), 8);
+    for (a, b) in one.levels.iter().zip(&two.levels) {
+        assert_eq!(a.mesh.faces, b.mesh.faces);
+        let bits = |l: &octowrap_mesh::Level| -> Vec<[u64; 3]> {
+            l.mesh.vertices.positions.iter().map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).collect()
+        };
+        assert_eq!(bits(a), bits(b));
+        assert_eq!(a.origins, b.origins);
+        assert_eq!(a.lattice, b.lattice);
+    }
+}
