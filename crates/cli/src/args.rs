@@ -9,7 +9,8 @@ use crate::cmd;
 /// and converts, inspects and validates point clouds and meshes.
 ///
 /// Formats read: PLY, OBJ, OFF, STL, XYZ/PTS/PWN, PCD, LAS/LAZ (COPC), E57, OpenEXR, Stanford .conf
-/// scan sets; any of them gzip-compressed. Formats written: PLY, OBJ, OFF, STL, XYZ.
+/// scan sets; any of them gzip-compressed. Formats written: PLY, OBJ, OFF, STL, XYZ. MRQ, octowrap's
+/// multiresolution file (spec/FORMAT.md), is read and written by every command that takes meshes.
 #[derive(Debug, Parser)]
 #[command(name = "octowrap", version, about, long_about, propagate_version = true, max_term_width = 100)]
 pub struct Cli {
@@ -18,15 +19,13 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands.
+/// The subcommands. Each one's help is the doc comment of its `Args` in `cmd/` (a doc comment
+/// here would replace it).
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Convert a point cloud or mesh between formats.
+    Reconstruct(cmd::reconstruct::Args),
     Convert(cmd::convert::Args),
-    /// Print counts, bounds, properties and face sizes of point clouds and meshes.
     Info(cmd::info::Args),
-    /// Write one level of an MRQ hierarchy as a mesh file.
     Extract(cmd::extract::Args),
-    /// Check meshes for two-manifoldness, orientation, holes and defects (for CI pipelines).
     Validate(cmd::validate::Args),
 }
