@@ -5,6 +5,7 @@ pub mod extract;
 pub mod info;
 pub mod input;
 pub mod mrq;
+pub mod reconstruct;
 pub mod validate;
 
 use std::process::ExitCode;
@@ -14,6 +15,7 @@ use crate::args::{Cli, Command};
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        Command::Reconstruct(a) => reconstruct::run(&a),
         Command::Convert(a) => convert::run(&a),
         Command::Extract(a) => extract::run(&a),
         Command::Info(a) => info::run(&a),

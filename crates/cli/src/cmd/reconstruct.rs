@@ -1,0 +1,208 @@
+//! `octowrap reconstruct`: a point cloud to a multiresolution quad mesh.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use octowrap_io::{Format, WriteOptions};
+use octowrap_recon::{LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
+
+use super::input::{InputArgs, parse_format};
+use super::mrq;
+use crate::progress;
+
+/// Reconstruct a surface from a point cloud: a two-manifold quad mesh at every octree level.
+///
+/// The points' bounding cube is split level by level (an octree); at every level a quad mesh is
+/// wrapped around the occupied cells, refined from the level above (each face has a parent face
+/// and quadrant, or was created), and its vertices are moved onto planes fitted to the nearby
+/// points. Open scans stay open (holes become boundary loops); closed objects come out closed.
+///
+/// By default the finest level is the deepest the sampling density supports (--max-level auto):
+/// the last level where the median cell holds at least 8 points. Asking for a deeper --level
+/// subdivides the last supported level and maps the new vertices onto the points.
+///
+/// Output: PLY or OBJ (or OFF, STL) get one level, the finest or --level K; an .mrq file gets the
+/// whole hierarchy with its parent links. --all-levels DIR also writes DIR/level-K.ply for every
+/// level K from 0 (the root cube).
+///
+/// Examples:
+///   octowrap reconstruct bun_zipper.ply -o bunny.ply
+///   octowrap reconstruct dragon_vrip.ply.gz -o dragon.ply --level 7 --timings
+///   octowrap reconstruct scan.laz -o scan.mrq --max-level auto
+///   octowrap reconstruct kitten.xyz -o kitten.obj --relax-passes 4 --all-levels kitten-levels/
+///   octowrap reconstruct cloud.ply -o cloud.ply --threads 1
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Input point cloud (any readable format; a mesh's vertices are used as points; `-` for
+    /// standard input with --from).
+    pub input: PathBuf,
+    /// Output file: .ply, .obj, .off, .stl for one level, .mrq for the hierarchy.
+    #[arg(long, short = 'o', value_name = "OUT")]
+    pub output: PathBuf,
+    /// Finest level to build, 1 to 20. Levels past the density limit are subdivided (or wrapped
+    /// with --wrap-sparse).
+    #[arg(long, short = 'l', value_name = "N", conflicts_with = "max_level")]
+    pub level: Option<u32>,
+    /// Finest level: `auto` (the deepest the sampling density supports) or a number.
+    #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_max_level)]
+    pub max_level: MaxLevel,
+    /// Write this level to a PLY/OBJ output instead of the finest.
+    #[arg(long, value_name = "K")]
+    pub write_level: Option<u32>,
+    /// Relaxation passes per level (Laplacian smoothing, then re-projection onto the points).
+    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().relax_passes)]
+    pub relax_passes: u32,
+    /// Median points per cell below which a level's topology is not trusted.
+    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().min_median_points)]
+    pub min_points: f64,
+    /// Wrap levels past the density limit instead of subdividing (they fragment where sparse).
+    #[arg(long)]
+    pub wrap_sparse: bool,
+    /// Worker threads (default: all cores). The output is the same for any number.
+    #[arg(long, short = 'j', value_name = "N")]
+    pub threads: Option<usize>,
+    /// Also write DIR/level-K.ply for every level K.
+    #[arg(long, value_name = "DIR")]
+    pub all_levels: Option<PathBuf>,
+    /// Print the per-level, per-stage time table (like the paper's Table 2) on standard error.
+    #[arg(long)]
+    pub timings: bool,
+    /// Output format, when OUT's extension does not say: ply, obj, off, stl.
+    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
+    pub to: Option<Format>,
+    /// Write text instead of binary (PLY, STL).
+    #[arg(long)]
+    pub ascii: bool,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+    #[command(flatten)]
+    pub mrq: mrq::MrqWriteArgs,
+}
+
+fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
+    if s.eq_ignore_ascii_case("auto") {
+        return Ok(MaxLevel::Auto);
+    }
+    let n: u32 = s.parse().with_context(|| format!("'{s}' is neither `auto` nor a level number"))?;
+    Ok(MaxLevel::Level(n))
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let is_mrq = mrq::has_mrq_extension(&args.output);
+    let to = if is_mrq { None } else { args.to.or_else(|| Format::from_path(&args.output)) };
+    if !is_mrq {
+        let Some(to) = to else {
+            bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
+        };
+        if !to.writable() || !to.holds_faces() {
+            bail!("{to} cannot hold a mesh; write .ply, .obj, .off, .stl or .mrq");
+        }
+    }
+    let mut opts = ReconOptions::default();
+    opts.max_level = args.level.map_or(args.max_level, MaxLevel::Level);
+    opts.relax_passes = args.relax_passes;
+    opts.min_median_points = args.min_points;
+    if args.wrap_sparse {
+        opts.sparse = SparseMode::Wrap;
+    }
+    let mesh = args.input_args.read(&args.input)?;
+    let points = mesh.vertices.positions;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let bar = progress::bar(1, "partitioning");
+    let result = pool.install(|| {
+        octowrap_recon::reconstruct_with(&points, &opts, &mut |p| {
+            let stage = match p.stage {
+                Stage::Partitioning => "partitioning",
+                Stage::Regular => "regular refinement",
+                Stage::Irregular => "irregular refinement",
+                Stage::Mapping => "vertex mapping",
+                Stage::Relaxation => "relaxation",
+            };
+            bar.set_length(u64::from(p.levels.max(1)) * 4);
+            let step = match p.stage {
+                Stage::Partitioning => 0,
+                Stage::Regular | Stage::Irregular => 1,
+                Stage::Mapping => 2,
+                Stage::Relaxation => 3,
+            };
+            bar.set_position(u64::from(p.level.saturating_sub(1)) * 4 + step);
+            bar.set_message(format!("level {}: {stage}", p.level));
+        })
+    });
+    bar.finish_and_clear();
+    let r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
+    if args.timings {
+        eprint!("{}", timing_table(&r));
+    }
+    let h = &r.hierarchy;
+    if let Some(dir) = &args.all_levels {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        for (k, level) in h.levels.iter().enumerate() {
+            let path = dir.join(format!("level-{k}.ply"));
+            octowrap_io::write_path(&path, &level.mesh, &WriteOptions::default())?;
+        }
+    }
+    if is_mrq {
+        mrq::write(&args.output, h, &args.mrq.options(false, &args.input))?;
+    } else {
+        let k = args.write_level.map_or(h.levels.len() - 1, |k| k as usize);
+        let Some(level) = h.levels.get(k) else {
+            bail!("--write-level {k}: the hierarchy has levels 0 to {}", h.levels.len() - 1);
+        };
+        let mut w = WriteOptions::default();
+        w.format = to;
+        w.ascii = args.ascii;
+        octowrap_io::write_path(&args.output, &level.mesh, &w)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The per-level, per-stage table (seconds), like the paper's Table 2.
+fn timing_table(r: &Reconstruction) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>5} {:>10} {:>9} {:>9} {:>13} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9}",
+        "level",
+        "kind",
+        "faces",
+        "vertices",
+        "partitioning",
+        "regular",
+        "irregular",
+        "mapping",
+        "relaxation",
+        "total",
+        "median"
+    );
+    for l in &r.levels {
+        let t = &l.timings;
+        let kind = match l.kind {
+            LevelKind::Root => "root",
+            LevelKind::Wrapped => "wrapped",
+            LevelKind::Subdivided => "subdivided",
+        };
+        let _ = writeln!(
+            s,
+            "{:>5} {:>10} {:>9} {:>9} {:>13.4} {:>8.4} {:>10.4} {:>10.4} {:>10.4} {:>9.4} {:>9}",
+            l.level,
+            kind,
+            l.faces,
+            l.vertices,
+            t.partitioning.as_secs_f64(),
+            t.regular.as_secs_f64(),
+            t.irregular.as_secs_f64(),
+            t.mapping.as_secs_f64(),
+            t.relaxation.as_secs_f64(),
+            t.total().as_secs_f64(),
+            l.median_points
+        );
+    }
+    let total: f64 = r.levels.iter().map(|l| l.timings.total().as_secs_f64()).sum();
+    let _ = writeln!(s, "total {total:.4} s; topology trusted to level {}", r.trusted_level);
+    s
+}
