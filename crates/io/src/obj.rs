@@ -243,6 +243,12 @@ mod tests {
             .unwrap();
         assert_eq!(m.vertices.normals.as_ref().unwrap()[2], Vec3::Y);
         assert_eq!(m.vertices.colors.as_ref().unwrap(), &[[255, 0, 0], [0, 128, 0], [0, 0, 255]]);
+        let m = rd(
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nvn 0 0 1\nvn 0 1 0\nf 1/3/1 2/2/2 -1/1/-1\n",
+        )
+        .unwrap();
+        assert_eq!(m.vertices.normals.as_ref().unwrap()[2], Vec3::Y, "v/vt/vn form");
+        assert_eq!(m.faces.face(0), &[0, 1, 2]);
         let m =
             rd(b"v 0 0 0 255 0 0\nv 1 0 0 0 7 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 1 0\nf 1//1 2//3 3//2\n").unwrap();
         assert!(m.vertices.normals.is_none(), "mismatched v and vn indices");

@@ -66,7 +66,7 @@ pub fn report() {
     // The floor under any reader that returns `Vec<DVec3>`: 120 MB of fresh memory, first touched.
     let (floor, copy) = best_of(RUNS, || back.vertices.positions.clone());
     drop(copy);
-    row("(floor: fresh 120 MB output written once, same bytes in)", bytes.len(), floor, "–");
+    row("floor: copying the 120 MB of positions to fresh memory", bytes.len(), floor, "–");
     drop(back);
 
     let dragon = shared_data().map(|d| d.join("stanford-dragon/dragon_vrip.ply.gz")).filter(|p| p.is_file());
