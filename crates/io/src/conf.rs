@@ -98,7 +98,7 @@ fn parse(data: &[u8]) -> Result<Vec<Scan>> {
                 }
                 let q = DQuat::from_xyzw(v[3], v[4], v[5], v[6]);
                 let len = q.length();
-                if !(len > 1e-9) {
+                if len.is_nan() || len <= 1e-9 {
                     return Err(lines.invalid("the pose quaternion has zero length"));
                 }
                 scans.push(Scan {
@@ -187,7 +187,8 @@ mod tests {
             points.len()
         );
         for p in points {
-            s.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+            use std::fmt::Write;
+            let _ = writeln!(s, "{} {} {}", p[0], p[1], p[2]);
         }
         s
     }

@@ -1,7 +1,7 @@
-//! OpenEXR reading: depth images and position images as point clouds.
+//! `OpenEXR` reading: depth images and position images as point clouds.
 //!
-//! Follows the OpenEXR file layout ("OpenEXR File Layout" and "Interpreting Deep Pixels",
-//! openexr.com; multi-view naming from "Storing Multi-View Images in OpenEXR Files"), decoded by
+//! Follows the `OpenEXR` file layout ("`OpenEXR` File Layout" and "Interpreting Deep Pixels",
+//! openexr.com; multi-view naming from "Storing Multi-View Images in `OpenEXR` Files"), decoded by
 //! the [`exr`] crate. Flat (scanline or tiled) images are read; the first part (layer) of a
 //! multi-part file, at its largest resolution level.
 //!
@@ -39,7 +39,7 @@ use crate::{Error, ErrorKind, Location, Mesh, PinholeCamera, ReadOptions, Result
 /// The most a compressed EXR can expand (deflate's limit is 1032:1; PIZ, RLE and B44 expand less).
 const MAX_EXPANSION: u64 = 1100;
 
-/// Reads a whole OpenEXR input.
+/// Reads a whole `OpenEXR` input.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     precheck(data, opts)?;
     let image = {
@@ -52,7 +52,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
             .all_attributes()
             .non_parallel()
             .from_buffered(Cursor::new(data))
-            .map_err(|e| convert("cannot decode the EXR pixels", e))?
+            .map_err(|e| convert("cannot decode the EXR pixels", &e))?
     };
     let layer = &image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
@@ -91,7 +91,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let depth_name = ["Z".to_owned()]
         .into_iter()
         .chain(first_view.map(|v| format!("{v}.Z")))
-        .chain(names.iter().filter(|n| n.ends_with(".Z")).cloned())
+        .chain(names.iter().filter(|n| n.rsplit_once('.').is_some_and(|(_, c)| c == "Z")).cloned())
         .chain(["depth".to_owned()])
         .find(|n| names.contains(n));
     if let Some(depth_name) = depth_name {
@@ -161,7 +161,7 @@ fn depth_image(
 }
 
 /// An `exr` crate error as ours.
-fn convert(what: &str, e: exr::error::Error) -> Error {
+fn convert(what: &str, e: &exr::error::Error) -> Error {
     let kind = match e {
         exr::error::Error::NotSupported(_) => ErrorKind::Unsupported,
         _ => ErrorKind::Invalid,
@@ -176,7 +176,7 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<()> {
         return Err(Error::invalid(Location::Byte(0), "expected the OpenEXR magic number 76 2f 31 01"));
     }
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(data), false)
-        .map_err(|e| convert("cannot read the EXR header", e))?;
+        .map_err(|e| convert("cannot read the EXR header", &e))?;
     if meta.headers.is_empty() {
         return Err(Error::invalid(Location::Unknown, "EXR file has no header"));
     }

@@ -2,7 +2,7 @@
 //! Cloud-Optimized Point Clouds (COPC, which are valid LAZ 1.4 files and are read as such).
 //!
 //! Follows the ASPRS "LAS Specification 1.4 - R15" (2019) for the public header block, and
-//! decodes points with the [`las`] crate (LASzip through the `laz` crate).
+//! decodes points with the [`las`] crate (`LASzip` through the `laz` crate).
 //!
 //! # What is read
 //! * Positions: the stored 32-bit integers times the header's scale plus its offset, computed in
@@ -178,7 +178,7 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<Precheck> {
     Ok(Precheck { count, compressed })
 }
 
-/// The LASzip VLR (user `laszip encoded`, record 22204) lists the items a point record is made of;
+/// The `LASzip` VLR (user `laszip encoded`, record 22204) lists the items a point record is made of;
 /// the `laz` crate trusts that list (it panics on an empty one), so check it: at least one item,
 /// each of a known type with its fixed size, all of one compressor generation (item versions 1-2
 /// with the LAS 1.0-1.3 items, 3-4 with the LAS 1.4 ones), sizes adding up to the record length.
@@ -245,7 +245,7 @@ fn check_laz_items(data: &[u8], header_size: u64, offset: u64, vlrs: u32, record
     Ok(())
 }
 
-/// LASzip stores a chunk table whose entry count the `laz` crate allocates for; each chunk holds
+/// `LASzip` stores a chunk table whose entry count the `laz` crate allocates for; each chunk holds
 /// at least one point and at least one byte, so the count must be within both.
 fn check_chunk_table(data: &[u8], offset: u64, count: u64) -> Result<()> {
     let len = data.len() as u64;
@@ -377,7 +377,7 @@ mod tests {
         for (name, count, colors) in [
             ("autzen_trim.las", 110_000, true),
             ("autzen_trim.laz", 110_000, true),
-            ("lone-star.copc.laz", 518_862, true),
+            ("lone-star.copc.laz", 518_862, false), // point format 6: no RGB
             ("Megaplot.laz", 81_590, false),
             ("MixedConifer.laz", 37_657, false),
             ("Topography.laz", 73_403, false),

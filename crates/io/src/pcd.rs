@@ -117,6 +117,8 @@ struct Header {
     data: DataKind,
     /// Byte offset of the first body byte.
     data_start: usize,
+    /// The `DATA` line.
+    data_line: Location,
 }
 
 impl Header {
@@ -197,66 +199,91 @@ impl Header {
         let sizes = sizes.ok_or_else(|| Error::invalid(data_loc, "PCD header has no SIZE line"))?;
         let types = types.ok_or_else(|| Error::invalid(data_loc, "PCD header has no TYPE line"))?;
         let counts = counts.unwrap_or_else(|| vec![1; names.len()]);
-        for (what, n) in [("SIZE", sizes.len()), ("TYPE", types.len()), ("COUNT", counts.len())] {
-            if n != names.len() {
-                return Err(Error::invalid(
-                    data_loc,
-                    format!("FIELDS names {} fields but {what} gives {n} entries", names.len()),
-                ));
-            }
-        }
-        let mut fields = Vec::with_capacity(names.len());
-        let (mut offset, mut values_per_point) = (0usize, 0usize);
-        for (((name, size), ty), count) in names.into_iter().zip(sizes).zip(types).zip(counts) {
-            if ty == b'F' && !matches!(size, 4 | 8) {
-                return Err(Error::unsupported(
-                    data_loc,
-                    format!("field '{name}' is a float of {size} bytes; only 4 and 8 are read"),
-                ));
-            }
-            fields.push(Field { name, size, ty, count, offset });
-            // SIZE ≤ 8 and COUNT ≤ 2^20 per field, and the field count is bounded by the header's
-            // length, so these sums cannot overflow in practice; check anyway.
-            offset = offset
-                .checked_add(size * count)
-                .ok_or_else(|| Error::limit(data_loc, "PCD point record size overflows"))?;
-            values_per_point = values_per_point.saturating_add(count);
-        }
+        let (fields, point_step, values_per_point) = build_fields(names, sizes, types, counts, data_loc)?;
         let roles = Roles::find(&fields, data_loc)?;
-        let points = match (points, width, height) {
-            (Some(p), Some(w), h) => {
-                let wh = w.checked_mul(h.unwrap_or(1));
-                if wh != Some(p) {
-                    return Err(Error::invalid(
-                        data_loc,
-                        format!("POINTS {p} differs from WIDTH {w} × HEIGHT {}", h.unwrap_or(1)),
-                    ));
-                }
-                p
-            }
-            (Some(p), None, _) => p,
-            (None, Some(w), h) => {
-                w.checked_mul(h.unwrap_or(1)).ok_or_else(|| Error::limit(data_loc, "WIDTH × HEIGHT overflows"))?
-            }
-            (None, None, _) => return Err(Error::invalid(data_loc, "PCD header gives neither POINTS nor WIDTH")),
-        };
-        Ok(Self { fields, roles, point_step: offset, values_per_point, points, viewpoint, data: kind, data_start })
+        let points = point_count(points, width, height, data_loc)?;
+        Ok(Self {
+            fields,
+            roles,
+            point_step,
+            values_per_point,
+            points,
+            viewpoint,
+            data: kind,
+            data_start,
+            data_line: data_loc,
+        })
     }
+}
+
+/// The point count: `POINTS`, checked against `WIDTH × HEIGHT` when both are given (`HEIGHT`
+/// defaults to 1).
+fn point_count(points: Option<u64>, width: Option<u64>, height: Option<u64>, at: Location) -> Result<u64> {
+    Ok(match (points, width, height) {
+        (Some(p), Some(w), h) => {
+            let wh = w.checked_mul(h.unwrap_or(1));
+            if wh != Some(p) {
+                return Err(Error::invalid(
+                    at,
+                    format!("POINTS {p} differs from WIDTH {w} × HEIGHT {}", h.unwrap_or(1)),
+                ));
+            }
+            p
+        }
+        (Some(p), None, _) => p,
+        (None, Some(w), h) => {
+            w.checked_mul(h.unwrap_or(1)).ok_or_else(|| Error::limit(at, "WIDTH × HEIGHT overflows"))?
+        }
+        (None, None, _) => return Err(Error::invalid(at, "PCD header gives neither POINTS nor WIDTH")),
+    })
+}
+
+/// Zips the `FIELDS`, `SIZE`, `TYPE` and `COUNT` lists into fields with their record offsets;
+/// returns them with the record size and the number of values per point.
+fn build_fields(
+    names: Vec<String>,
+    sizes: Vec<usize>,
+    types: Vec<u8>,
+    counts: Vec<usize>,
+    at: Location,
+) -> Result<(Vec<Field>, usize, usize)> {
+    for (what, n) in [("SIZE", sizes.len()), ("TYPE", types.len()), ("COUNT", counts.len())] {
+        if n != names.len() {
+            return Err(Error::invalid(
+                at,
+                format!("FIELDS names {} fields but {what} gives {n} entries", names.len()),
+            ));
+        }
+    }
+    let mut fields = Vec::with_capacity(names.len());
+    let (mut offset, mut values_per_point) = (0usize, 0usize);
+    for (((name, size), ty), count) in names.into_iter().zip(sizes).zip(types).zip(counts) {
+        if ty == b'F' && !matches!(size, 4 | 8) {
+            return Err(Error::unsupported(
+                at,
+                format!("field '{name}' is a float of {size} bytes; only 4 and 8 are read"),
+            ));
+        }
+        fields.push(Field { name, size, ty, count, offset });
+        // SIZE ≤ 8 and COUNT ≤ 2^20 per field, and the field count is bounded by the header's
+        // length, so these sums cannot overflow in practice; check anyway.
+        offset = offset.checked_add(size * count).ok_or_else(|| Error::limit(at, "PCD point record size overflows"))?;
+        values_per_point = values_per_point.saturating_add(count);
+    }
+    Ok((fields, offset, values_per_point))
 }
 
 impl Roles {
     fn find(fields: &[Field], at: Location) -> Result<Self> {
         let find = |name: &str| fields.iter().position(|f| f.name == name && f.count >= 1);
-        let xyz = match (find("x"), find("y"), find("z")) {
-            (Some(x), Some(y), Some(z)) => [x, y, z],
-            _ => {
-                let names: Vec<&str> = fields.iter().map(|f| f.name.as_str()).collect();
-                return Err(Error::unsupported(
-                    at,
-                    format!("PCD fields x, y and z are required, found only '{}'", names.join(" ")),
-                ));
-            }
+        let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
+            let names: Vec<&str> = fields.iter().map(|f| f.name.as_str()).collect();
+            return Err(Error::unsupported(
+                at,
+                format!("PCD fields x, y and z are required, found only '{}'", names.join(" ")),
+            ));
         };
+        let xyz = [x, y, z];
         let normal = match (find("normal_x"), find("normal_y"), find("normal_z")) {
             (Some(x), Some(y), Some(z)) => Some([x, y, z]),
             _ => None,
@@ -410,8 +437,11 @@ fn read_ascii(data: &[u8], h: &Header, max: u64) -> Result<PointCloud> {
     // Each value takes at least one character and one separator; the last point's line may
     // lack its newline, hence the one extra byte granted.
     let min_each = (h.values_per_point as u64).saturating_mul(2).max(1);
-    let line0 = data[..h.data_start.min(data.len())].iter().filter(|&&c| c == b'\n').count() as u64;
-    let n = justify(h.points, min_each, body.len().saturating_add(1), max, "points", Location::Line(line0.max(1)))?;
+    let line0 = match h.data_line {
+        Location::Line(l) => l,
+        _ => 0,
+    };
+    let n = justify(h.points, min_each, body.len().saturating_add(1), max, "points", h.data_line)?;
     let mut lines = Lines::new(body);
     let at = |l: &Lines<'_>| match l.location() {
         Location::Line(k) => Location::Line(k + line0),
