@@ -99,3 +99,22 @@ fn watertight_requirement_fails_on_an_open_box() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("required but not met: watertight"));
 }
+
+#[test]
+fn mrq_files_are_checked_level_by_level() {
+    let out = octowrap(&["validate", "--format", "json", "fixtures/format/valid/cube3_subdivision_q10.mrq"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let outcome = &v["files"][0]["outcome"];
+    assert_eq!(outcome["kind"], "hierarchy");
+    let levels = outcome["levels"].as_array().unwrap();
+    assert!(levels.len() >= 2);
+    assert!(levels.iter().all(|l| l["properties"]["manifold"] == true));
+    assert_eq!(outcome["links"], serde_json::json!([]));
+
+    // A corrupted level is unreadable (exit 2), and the report says which level and byte.
+    let out = octowrap(&["validate", "fixtures/format/invalid/level1_checksum.mrq"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("checksum mismatch in level 1"), "{err}");
+}

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::ValueEnum;
 use octowrap_io::Format as MeshFormat;
-use octowrap_validate::{FileResult, Format, Options, Outcome, Requirement, validate_mesh, write_report};
+use octowrap_validate::{
+    FileResult, Format, Options, Outcome, Requirement, validate_hierarchy, validate_mesh, write_report,
+};
 use rayon::prelude::*;
 
 use super::input::InputArgs;
@@ -15,7 +17,9 @@ use super::input::InputArgs;
 /// Check meshes for two-manifoldness, orientation, holes and defects.
 ///
 /// Every file (or every mesh file under a directory) is read as a raw indexed face list, so broken
-/// meshes are described rather than rejected. A human summary goes to standard error; `--format`
+/// meshes are described rather than rejected. An MRQ file is decoded whole (every checksum, and
+/// every level's derivation from its parent, is checked on the way), then every level gets the
+/// mesh checks and the parent links are checked. A human summary goes to standard error; `--format`
 /// writes a machine report (JSON, JUnit XML or SARIF 2.1.0) to standard output.
 ///
 /// Definitions (they differ between tools; these are octowrap's):
@@ -45,7 +49,7 @@ use super::input::InputArgs;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Mesh files (PLY, OBJ, OFF, STL) or directories to search for them.
+    /// Mesh files (PLY, OBJ, OFF, STL, MRQ) or directories to search for them.
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     /// Properties that must hold, comma-separated: manifold, oriented, closed, watertight, clean,
@@ -135,12 +139,21 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         .par_iter()
         .map(|path| {
             let name = path.display().to_string();
+            let mut o = Options::default();
+            o.max_elements = args.max_elements;
+            o.self_intersections = args.self_intersections || required.contains(&Requirement::IntersectionFree);
+            if super::mrq::is_mrq(path) {
+                // Decoding checks every level's checksum and that each level derives from its
+                // parent as the spec says; then every level gets the mesh checks.
+                let outcome = match octowrap_format::read_path(path, &octowrap_format::DecodeOptions::default()) {
+                    Ok(file) => Outcome::Hierarchy(validate_hierarchy(&file.hierarchy, &o)),
+                    Err(e) => Outcome::Unreadable { error: format!("{name}: {e}") },
+                };
+                return FileResult::new(name, outcome, &required);
+            }
             let outcome = match args.input_args.read_detected(path) {
                 Err(e) => Outcome::Unreadable { error: format!("{e:#}") },
                 Ok((format, mesh)) => {
-                    let mut o = Options::default();
-                    o.max_elements = args.max_elements;
-                    o.self_intersections = args.self_intersections || required.contains(&Requirement::IntersectionFree);
                     o.weld = match args.weld {
                         Weld::Always => true,
                         Weld::Never => false,
@@ -191,7 +204,7 @@ fn collect(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
             walk(p, &mut found).with_context(|| format!("cannot list {}", p.display()))?;
             found.sort();
             if found.is_empty() {
-                anyhow::bail!("{} holds no mesh files (ply, obj, off, stl)", p.display());
+                anyhow::bail!("{} holds no mesh files (ply, obj, off, stl, mrq)", p.display());
             }
             out.extend(found);
         } else {
@@ -206,7 +219,9 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
         let path = entry?.path();
         if path.is_dir() {
             walk(&path, out)?;
-        } else if MeshFormat::from_path(&path).is_some_and(MeshFormat::holds_faces) {
+        } else if MeshFormat::from_path(&path).is_some_and(MeshFormat::holds_faces)
+            || super::mrq::has_mrq_extension(&path)
+        {
             out.push(path);
         }
     }
