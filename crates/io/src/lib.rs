@@ -5,7 +5,7 @@
 //! | PLY | ascii, binary LE/BE | binary LE (default), ascii | extra vertex properties skipped; any integer list type |
 //! | OBJ | yes | yes | quads and n-gons kept; negative indices |
 //! | OFF | yes | yes | `OFF`, `COFF`, `NOFF`, `CNOFF` headers |
-//! | STL | ascii, binary | binary (ascii on request) | polygons are fan-triangulated on write |
+//! | STL | ascii, binary | binary (ascii on request) | read as stored (3 vertices per triangle: [`Mesh::weld_exact`] indexes them); quads split along the shorter diagonal on write |
 //! | XYZ / PTS / PWN | yes | yes (XYZ) | whitespace columns: `x y z [nx ny nz]` |
 //! | PCD | ascii, binary, binary_compressed | – | |
 //! | LAS / LAZ | yes (COPC as plain LAZ) | – | scaled coordinates kept in `f64` |
