@@ -86,8 +86,12 @@ pub fn decode_level(
     if mode == Mode::Lattice && (!has_lattice || !(grid.exact || grid.tied)) {
         return Err(bad(0, "lattice mode needs the lattice flag and an exact or cube-tied grid".into()));
     }
-    if head.bytes(2)? != [0, 0] {
-        return Err(bad(2, "reserved bytes are not zero".into()));
+    let predictor = head.u8()?;
+    if predictor > u8::from(mode == Mode::Lattice) {
+        return Err(bad(2, format!("predictor {predictor} is not defined for mode {}", mode as u8)));
+    }
+    if head.u8()? != 0 {
+        return Err(bad(3, "reserved byte is not zero".into()));
     }
     let (nv, nf, nc) = (head.u32()?, head.u32()?, head.u32()?);
     if (nv, nf, nc) != (entry.vertex_count, entry.face_count, entry.corner_count) {
@@ -414,16 +418,16 @@ pub fn decode_level(
         }
         // Geometry context positions exclude exceptions; pass them on.
         out.parents.shrink_to_fit();
-        return finish(k, mode, has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
+        return finish(k, (mode, predictor), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
     }
     let pos = vec![NONE; nc];
-    finish(k, mode, has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
+    finish(k, (mode, predictor), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
 }
 
 #[allow(clippy::too_many_arguments)]
 fn finish(
     k: u32,
-    mode: Mode,
+    (mode, predictor): (Mode, u8),
     has_lattice: bool,
     grid: GridInfo,
     st: &mut [Reader<'_>],
@@ -481,6 +485,7 @@ fn finish(
             corner_pos: pos,
             vertex_corners: out.corners.as_deref(),
             parent_quads: (mode == Mode::Lattice).then_some(parent_quads),
+            predictor,
         };
         let geo_off = g.offset();
         geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {

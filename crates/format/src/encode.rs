@@ -108,9 +108,8 @@ pub fn encode_level(
         level.q.clone_from(&input.q);
         level.exact.clone_from(&input.exact);
         let pos = vec![NONE; input.indices.len()];
-        let geo = geometry(&mut st, &mut level, Mode::Base, k, bits, exact, None, &pos, &[], None);
-        let _ = geo;
-        return Ok(finish(st, Mode::Base, has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect()));
+        st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], 0);
+        return Ok(finish(st, (Mode::Base, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect()));
     };
     let pp = parent.as_parent();
     let lattice_plan =
@@ -370,8 +369,18 @@ pub fn encode_level(
     level.exact =
         if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
     let quads = if mode == Mode::Lattice { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
-    geometry(&mut st, &mut level, mode, k, bits, exact, Some(parent), &pos, &quads, None);
-    Ok(finish(st, mode, has_lattice, level, face_new, vorder))
+    let mut predictor = 0u8;
+    st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, 0);
+    if mode == Mode::Lattice && !exact {
+        // Keep whichever lattice predictor compresses better (spec §6.3).
+        let other = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, 1);
+        let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
+        if size(&other) < size(&st.0[s::GEOMETRY]) {
+            st.0[s::GEOMETRY] = other;
+            predictor = 1;
+        }
+    }
+    Ok(finish(st, (mode, predictor), has_lattice, level, face_new, vorder))
 }
 
 fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
@@ -390,10 +399,10 @@ fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
     }
 }
 
+/// The geometry stream (§6.1) of a level under the given predictor.
 #[allow(clippy::too_many_arguments)]
 fn geometry(
-    st: &mut Streams,
-    level: &mut PlainLevel,
+    level: &PlainLevel,
     mode: Mode,
     k: u32,
     bits: u32,
@@ -401,19 +410,19 @@ fn geometry(
     parent: Option<&PlainLevel>,
     pos: &[u32],
     quads: &[([u32; 4], u8)],
-    _unused: Option<()>,
-) {
-    let g = &mut st.0[s::GEOMETRY];
+    predictor: u8,
+) -> Vec<u8> {
+    let mut g = Vec::new();
     if exact {
         for a in 0..3 {
             let vals: Vec<u64> = level.exact.iter().map(|p| p[a].to_bits()).collect();
-            put_planes(g, &vals);
+            put_planes(&mut g, &vals);
         }
-        return;
+        return g;
     }
     let nv = level.q.len();
     let mut res = [vec![0u64; nv], vec![0u64; nv], vec![0u64; nv]];
-    let target = level.q.clone();
+    let target = &level.q;
     let pp = parent.map(PlainLevel::as_parent);
     let topo = Topo {
         mode,
@@ -426,6 +435,7 @@ fn geometry(
         corner_pos: pos,
         vertex_corners: level.corners.as_deref(),
         parent_quads: (mode == Mode::Lattice).then_some(quads),
+        predictor,
     };
     let mut q = vec![[0i64; 3]; nv];
     let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {
@@ -435,13 +445,14 @@ fn geometry(
         Ok(target[v])
     });
     for r in &res {
-        put_planes(g, r);
+        put_planes(&mut g, r);
     }
+    g
 }
 
 fn finish(
     st: Streams,
-    mode: Mode,
+    (mode, predictor): (Mode, u8),
     has_lattice: bool,
     level: PlainLevel,
     face_new: Vec<u32>,
@@ -451,7 +462,7 @@ fn finish(
     let mut payload = Vec::new();
     payload.push(mode as u8);
     payload.push(if has_lattice { BLOCK_FLAG_LATTICE } else { 0 });
-    payload.extend([0, 0]);
+    payload.extend([predictor, 0]);
     payload.extend((nv as u32).to_le_bytes());
     payload.extend((level.parents.len() as u32).to_le_bytes());
     payload.extend((level.indices.len() as u32).to_le_bytes());

@@ -186,6 +186,36 @@ pub struct Topo<'a> {
     pub vertex_corners: Option<&'a [[u32; 3]]>,
     /// Lattice mode: parent slots and canonical quads.
     pub parent_quads: Option<&'a [([u32; 4], u8)]>,
+    /// Lattice mode: [`PREDICTOR_NORMAL`] or [`PREDICTOR_BILINEAR`].
+    pub predictor: u8,
+}
+
+/// Lattice predictor 0: the lattice point moved along the parent normal (spec §6.3).
+#[allow(dead_code)]
+pub const PREDICTOR_NORMAL: u8 = 0;
+/// Lattice predictor 1: the parent surface's bilinear point (spec §6.3).
+pub const PREDICTOR_BILINEAR: u8 = 1;
+
+/// The bilinear point of the parent face above lattice corner `corner` (spec §6.3, predictor 1).
+pub fn bilinear_prediction(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
+    bilinear_sum(pq, quad, slot, corner).map(|x| round_div(x, 4))
+}
+
+/// `S` of spec §6.3: four times the parent's bilinear point above `corner`.
+fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
+    let (u, w) = lattice::plane_axes(slot.1);
+    let c0 = lattice::slot_corners(slot.0, slot.1)[0];
+    let a = (i64::from(corner[u]) - 2 * i64::from(c0[u])).clamp(0, 2);
+    let b = (i64::from(corner[w]) - 2 * i64::from(c0[w])).clamp(0, 2);
+    let p = quad.map(|i| pq[i as usize]);
+    let wts = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
+    let mut s = [0i64; 3];
+    for i in 0..4 {
+        for k in 0..3 {
+            s[k] += wts[i] * p[i][k];
+        }
+    }
+    s
 }
 
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
@@ -213,14 +243,28 @@ pub fn geometry_pass<E>(
             }
         }
     }
-    let mut face_of_corner = Vec::new();
-    if let Some(p) = parent {
-        face_of_corner = vec![0u32; topo.indices.len()];
-        for f in 0..topo.parents.len() {
-            for c in topo.offsets[f]..topo.offsets[f + 1] {
-                face_of_corner[c as usize] = f as u32;
-            }
+    // Vertex-to-corner incidence (corner order) and the face of every corner.
+    let mut face_of_corner = vec![0u32; topo.indices.len()];
+    for f in 0..topo.offsets.len() - 1 {
+        for c in topo.offsets[f]..topo.offsets[f + 1] {
+            face_of_corner[c as usize] = f as u32;
         }
+    }
+    let mut start = vec![0u32; nv + 1];
+    for &v in topo.indices {
+        start[v as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; topo.indices.len()];
+    for (c, &v) in topo.indices.iter().enumerate() {
+        inc[fill[v as usize] as usize] = c as u32;
+        fill[v as usize] += 1;
+    }
+    let mut bias = vec![[0i64; 3]; if parent.is_some() { nv } else { 0 }];
+    if let Some(p) = parent {
         // Pass A: vertices with a parent context, in index order.
         for v in 0..nv {
             let c = ctx[v];
@@ -234,7 +278,11 @@ pub fn geometry_pass<E>(
                     let quads = topo.parent_quads.expect("lattice mode has parent quads");
                     let slots = p.slots.expect("lattice parent");
                     let corners = topo.vertex_corners.expect("lattice level");
-                    lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
+                    if topo.predictor == PREDICTOR_BILINEAR {
+                        bilinear_prediction(p.q, quads[pf].0, slots[pf], corners[v])
+                    } else {
+                        lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
+                    }
                 }
                 _ => {
                     let face = p.face(pf);
@@ -265,34 +313,41 @@ pub fn geometry_pass<E>(
                     sum.map(|s| round_div(s, w))
                 }
             };
+            // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
+            let base = clamp(pred);
+            let mut sum = [0i64; 3];
+            let mut count = 0i64;
+            for &c in &inc[start[v] as usize..start[v + 1] as usize] {
+                let f = face_of_corner[c as usize] as usize;
+                let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
+                let n = b - a;
+                let i = c as usize - a;
+                for u in [topo.indices[a + (i + n - 1) % n], topo.indices[a + (i + 1) % n]] {
+                    let u = u as usize;
+                    if u < v && ctx[u] != NONE {
+                        for k in 0..3 {
+                            sum[k] += bias[u][k];
+                        }
+                        count += 1;
+                    }
+                }
+            }
+            let mut pred = base;
+            if count > 0 {
+                for k in 0..3 {
+                    pred[k] += round_div(3 * sum[k], 4 * count);
+                }
+            }
             q[v] = step(v, clamp(pred))?;
+            for k in 0..3 {
+                bias[v][k] = q[v][k] - base[k];
+            }
         }
     }
     if ctx.iter().all(|&c| c != NONE) {
         return Ok(());
     }
     // Pass B: the other vertices in index order, from already decoded neighbours.
-    let mut start = vec![0u32; nv + 1];
-    for &v in topo.indices {
-        start[v as usize + 1] += 1;
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; topo.indices.len()];
-    if face_of_corner.is_empty() {
-        face_of_corner = vec![0u32; topo.indices.len()];
-        for f in 0..topo.offsets.len() - 1 {
-            for c in topo.offsets[f]..topo.offsets[f + 1] {
-                face_of_corner[c as usize] = f as u32;
-            }
-        }
-    }
-    for (c, &v) in topo.indices.iter().enumerate() {
-        inc[fill[v as usize] as usize] = c as u32;
-        fill[v as usize] += 1;
-    }
     let lattice_mode = topo.mode == Mode::Lattice;
     let lp = |v: usize| -> [i64; 3] {
         match topo.vertex_corners {
@@ -351,19 +406,8 @@ pub fn lattice_prediction(
     level: u32,
     bits: u32,
 ) -> [i64; 3] {
-    let (u, w) = lattice::plane_axes(slot.1);
-    let c0 = lattice::slot_corners(slot.0, slot.1)[0];
-    let a = i64::from(corner[u]) - 2 * i64::from(c0[u]);
-    let b = i64::from(corner[w]) - 2 * i64::from(c0[w]);
-    let (a, b) = (a.clamp(0, 2), b.clamp(0, 2));
+    let s = bilinear_sum(pq, quad, slot, corner);
     let p = quad.map(|i| pq[i as usize]);
-    let wts = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
-    let mut s = [0i64; 3];
-    for i in 0..4 {
-        for k in 0..3 {
-            s[k] += wts[i] * p[i][k];
-        }
-    }
     let l = lattice::lattice_point(corner, level, bits);
     let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
     let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
