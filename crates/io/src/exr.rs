@@ -83,11 +83,13 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     if let Some(p) = xyz("X", "Y", "Z")? {
         return Ok(positions_image(&p));
     }
-    let views = layer.attributes.other.get(&exr::prelude::Text::from("multiView"));
-    let first_view = match views {
-        Some(exr::meta::attribute::AttributeValue::TextVector(v)) => v.first().map(ToString::to_string),
-        _ => layer.attributes.layer_name.as_ref().map(ToString::to_string),
-    };
+    let first_view = layer
+        .attributes
+        .multi_view_names
+        .as_ref()
+        .and_then(|v| v.first())
+        .or(layer.attributes.layer_name.as_ref())
+        .map(ToString::to_string);
     let depth_name = ["Z".to_owned()]
         .into_iter()
         .chain(first_view.map(|v| format!("{v}.Z")))
@@ -321,8 +323,9 @@ mod tests {
         let camera = PinholeCamera { fx: 1000.0, fy: 1000.0, cx: 1024.0, cy: 778.0 };
         let m = read(&beach, &ReadOptions { camera: Some(camera), ..opts() }).unwrap();
         let c = &m.vertices;
-        // Data window (654,245)-(1564,1120): 911 × 876 pixels, the ball covering part of them.
-        assert!(!c.is_empty() && c.len() <= 911 * 876, "{}", c.len());
+        // Data window (654,245)-(1564,1120): 911 × 876 = 798,036 pixels, of which 596,983 have a
+        // finite positive depth in `Z` (the default view; `left.Z` is the other one).
+        assert_eq!(c.len(), 596_983);
         assert_eq!(c.non_finite_count(), 0);
         assert!(c.positions.iter().all(|p| p.z > 0.0));
         assert_eq!(c.colors.as_ref().map(Vec::len), Some(c.len()));
