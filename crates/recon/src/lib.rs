@@ -363,10 +363,16 @@ pub fn reconstruct_with(
         tree.push_level();
         part_times.push(t.elapsed());
     };
-    // Auto may have partitioned one level past the trusted one: drop it.
-    while tree.depth() > finest {
+    // One level below the finest speeds up the vertex mapping's neighbourhood queries.
+    let keep = (finest + 1).min(MAX_LEVEL);
+    while tree.depth() > keep {
         tree.levels.pop();
         part_times.pop();
+    }
+    while tree.depth() < keep {
+        let t = Instant::now();
+        tree.push_level();
+        *part_times.last_mut().expect("level 0 exists") += t.elapsed();
     }
     if opts.sparse == SparseMode::Wrap {
         trusted = finest;
@@ -496,7 +502,7 @@ pub fn reconstruct_with(
                 .collect();
             mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &next.positions)
         } else {
-            mapping::map_free(&tree, cells, &next.positions)
+            mapping::map_free(&tree, j, &next.positions)
         };
         next.positions = mapped.positions;
         rep.timings.mapping = t.elapsed();

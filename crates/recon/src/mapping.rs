@@ -6,7 +6,8 @@
 //! see different points). `P` is their points within half a voxel edge of the vertex
 //! (`2 |p - v| < l`, the paper's filter). With fewer than 3 points, `W` grows by every voxel
 //! adjacent to it (sharing a vertex, edge or face, the paper's `W'`), first with the radius
-//! doubled to `l`, then without the filter. The plane is the PCA fit (centroid `c`, normal of the
+//! doubled to `l` (those points lie in the 2x2x2 voxels around the corner), then without the
+//! filter (summing the voxels' moments). The plane is the PCA fit (centroid `c`, normal of the
 //! smallest covariance eigenvalue) and the vertex moves to `v - ((v - c) . n) n` (equation (1)).
 //! A vertex with fewer than 3 points even then keeps its place. Moments are accumulated relative
 //! to the vertex, in `f64`, so the fit does not lose precision at fine levels.
@@ -93,10 +94,33 @@ pub(crate) fn map_wrapped(
             let w: Vec<usize> =
                 pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
             let mut m = Moments::default();
-            for &c in &w {
-                gather(tree, cells, c, x, 0.5 * l, &mut m);
+            // The points within l/2 of a lattice corner lie in the children touching it.
+            let corner = (x / l).round();
+            let exact = (x / l - corner).abs().max_element() < 1e-9;
+            match (tree.levels.get(level as usize + 1), exact) {
+                (Some(children), true) => {
+                    let k = [corner.x as u32, corner.y as u32, corner.z as u32];
+                    for &c in &w {
+                        let v = morton::decode(cells.keys[c]);
+                        let child = morton::encode(v[0] + k[0], v[1] + k[1], v[2] + k[2]);
+                        if let Some(ci) = children.find(child) {
+                            gather(tree, children, ci, x, 0.5 * l, &mut m);
+                        }
+                    }
+                }
+                _ => {
+                    for &c in &w {
+                        gather(tree, cells, c, x, 0.5 * l, &mut m);
+                    }
+                }
             }
             if m.count < 3.0 {
+                // W' within radius l: the ball lies in the 2x2x2 voxels around the corner.
+                m = Moments::default();
+                gather_ball(tree, cells, x, l, &mut m);
+            }
+            if m.count < 3.0 {
+                // All points of W': the voxels adjacent to W, by their moments.
                 let mut grown: Vec<usize> = w
                     .iter()
                     .flat_map(|&c| {
@@ -106,14 +130,13 @@ pub(crate) fn map_wrapped(
                     .collect();
                 grown.sort_unstable();
                 grown.dedup();
-                for radius in [l, f64::INFINITY] {
-                    m = Moments::default();
-                    for &c in &grown {
-                        gather(tree, cells, c, x, radius, &mut m);
-                    }
-                    if m.count >= 3.0 {
-                        break;
-                    }
+                let mut all = Moments::default();
+                for &c in &grown {
+                    all.merge(&cells.moments[c]);
+                }
+                if let Some(p) = all.fit_plane() {
+                    let plane = TangentPlane { point: p.point, normal: p.normal };
+                    return (plane.project(x), Some(plane));
                 }
             }
             match fit(&m, x) {
@@ -125,34 +148,40 @@ pub(crate) fn map_wrapped(
     Mapped { positions, planes }
 }
 
-/// Maps free vertices (of a subdivided level) onto the points within one, then two, voxel edges
-/// of `cells`' level.
-pub(crate) fn map_free(tree: &Octree, cells: &Cells, start: &[DVec3]) -> Mapped {
-    let l = cells.voxel();
-    let level = cells.level;
-    let n = 1i64 << level;
+/// Sums the points within `radius` of `x` from the 2x2x2 voxels of `cells` around the lattice
+/// corner nearest to `x`; complete when `radius` is at most half a voxel.
+fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Moments) {
+    let h = cells.voxel();
+    let n = 1i64 << cells.level;
+    let c = (x / h).round();
+    for dz in -1..=0i64 {
+        for dy in -1..=0i64 {
+            for dx in -1..=0i64 {
+                let v = [c.x as i64 + dx, c.y as i64 + dy, c.z as i64 + dz];
+                if v.iter().any(|&a| a < 0 || a >= n) {
+                    continue;
+                }
+                if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
+                    gather(tree, cells, i, x, radius, m);
+                }
+            }
+        }
+    }
+}
+
+/// Maps free vertices (of a subdivided level `level`) onto the points within one, then two,
+/// voxel edges of that level (queried on the voxels of the levels above, whose half edge those
+/// radii are).
+pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
+    let l = crate::octree::voxel_size(level);
     let (positions, planes): (Vec<DVec3>, Vec<Option<TangentPlane>>) = start
         .par_iter()
         .map(|&x| {
-            let base = (x / l).floor();
             let mut m = Moments::default();
-            for reach in [1i64, 2] {
+            for up in 1..=2u32 {
+                let Some(q) = level.checked_sub(up) else { break };
                 m = Moments::default();
-                let radius = reach as f64 * l;
-                for dz in -reach..=reach {
-                    for dy in -reach..=reach {
-                        for dx in -reach..=reach {
-                            let c = [base.x as i64 + dx, base.y as i64 + dy, base.z as i64 + dz];
-                            if c.iter().any(|&v| v < 0 || v >= n) {
-                                continue;
-                            }
-                            let key = morton::encode(c[0] as u32, c[1] as u32, c[2] as u32);
-                            if let Some(i) = cells.find(key) {
-                                gather(tree, cells, i, x, radius, &mut m);
-                            }
-                        }
-                    }
-                }
+                gather_ball(tree, &tree.levels[q as usize], x, f64::from(1u32 << (up - 1)) * l, &mut m);
                 if m.count >= 3.0 {
                     break;
                 }

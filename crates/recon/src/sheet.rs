@@ -88,33 +88,64 @@ impl Mask {
     }
 }
 
-/// Whether `points` lie in two layers along `n`: sorted by height over the plane `(m, n)`, some
-/// gap between consecutive heights is wider than a twentieth of a voxel and than three times the
-/// largest gap expected from uniform sampling (`ln k` mean gaps), with at least a tenth of the
-/// points (and 2) on either side; or, with the thin plate's rim filling the gap, fewer than a fifth of
-/// the points lie within half the RMS height of the plane. A single sheet, noisy or curved, has
+/// Whether `points` lie in two layers along `n`: by height over the plane `(m, n)`, fewer than a
+/// fifth of the points lie within half the RMS height (a valley; the rim of a thin plate may
+/// sample the space between its sides), or some empty run of a 64-bin height histogram is wider
+/// than a twentieth of a voxel and than three times the largest gap expected from uniform sampling
+/// (`ln k` mean gaps); either way with at least a tenth of the points (and 2) on either side. A single sheet, noisy or curved, has
 /// neither; both sides of a thin plate do.
 fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) -> bool {
     let k = points.len();
     if k < 6 {
         return false;
     }
-    let mut d: Vec<f64> = points.iter().map(|p| (p.as_dvec3() - m).dot(n)).collect();
-    d.sort_unstable_by(f64::total_cmp);
-    let range = d[k - 1] - d[0];
-    let need = 3.0 * (k as f64).ln() * range / k as f64;
+    let (mut lo, mut hi, mut sum2) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
+    for p in points {
+        let d = (p.as_dvec3() - m).dot(n);
+        lo = lo.min(d);
+        hi = hi.max(d);
+        sum2 += d * d;
+    }
+    let r = (sum2 / k as f64).sqrt();
+    if !(r > 0.05 * h) {
+        return false;
+    }
     let side = (k / 10).max(2);
-    let gap = (side..=k - side).any(|i| {
-        let gap = d[i] - d[i - 1];
-        gap > 0.05 * h && gap > need
-    });
-    // A valley rather than a gap (the rim of a thin plate samples the space between its sides):
-    // under a fifth of the points within half the RMS height of the plane, some on either side.
-    let r = (d.iter().map(|x| x * x).sum::<f64>() / k as f64).sqrt();
-    let near = d.iter().filter(|x| x.abs() < 0.5 * r).count();
-    let (below, above) = (d.iter().filter(|&&x| x <= -0.5 * r).count(), d.iter().filter(|&&x| x >= 0.5 * r).count());
-    let valley = r > 0.05 * h && 5 * near < k && below >= side && above >= side;
-    gap || valley
+    // The valley: few points within half the RMS height.
+    let (mut near, mut below, mut above) = (0, 0, 0);
+    // The gap, on a histogram of 64 bins (no sort): an empty run wider than the threshold.
+    const BINS: usize = 64;
+    let mut hist = [0u32; BINS];
+    let width = (hi - lo) / BINS as f64;
+    for p in points {
+        let d = (p.as_dvec3() - m).dot(n);
+        if d.abs() < 0.5 * r {
+            near += 1;
+        } else if d < 0.0 {
+            below += 1;
+        } else {
+            above += 1;
+        }
+        hist[(((d - lo) / width) as usize).min(BINS - 1)] += 1;
+    }
+    if 5 * near < k && below >= side && above >= side {
+        return true;
+    }
+    let need = (3.0 * (k as f64).ln() * (hi - lo) / k as f64).max(0.05 * h);
+    let mut count = 0;
+    let mut run = 0;
+    for &c in &hist {
+        if c == 0 {
+            run += 1;
+            if (run as f64) * width > need && count >= side && k - count >= side {
+                return true;
+            }
+        } else {
+            run = 0;
+            count += c as usize;
+        }
+    }
+    false
 }
 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
