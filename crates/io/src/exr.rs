@@ -233,13 +233,20 @@ mod tests {
 
     /// A 2×2 flat image with the given f32 channels.
     fn image(channels: &[(&str, [f32; 4])], compressed: bool) -> Vec<u8> {
+        image_with_views(channels, compressed, None)
+    }
+
+    /// Like [`image`], with a `multiView` attribute.
+    fn image_with_views(channels: &[(&str, [f32; 4])], compressed: bool, views: Option<&[&str]>) -> Vec<u8> {
         use exr::prelude::WritableImage;
         let list = channels
             .iter()
             .map(|(name, v)| AnyChannel::new(*name, FlatSamples::F32(v.to_vec())))
             .collect::<exr::prelude::SmallVec<_>>();
         let encoding = if compressed { Encoding::SMALL_LOSSLESS } else { Encoding::UNCOMPRESSED };
-        let layer = Layer::new(Vec2(2, 2), LayerAttributes::default(), encoding, AnyChannels::sort(list));
+        let mut attributes = LayerAttributes::default();
+        attributes.multi_view_names = views.map(|v| v.iter().map(|n| exr::prelude::Text::from(*n)).collect());
+        let layer = Layer::new(Vec2(2, 2), attributes, encoding, AnyChannels::sort(list));
         let mut out = Cursor::new(Vec::new());
         Image::from_layer(layer).write().to_buffered(&mut out).unwrap();
         out.into_inner()
@@ -255,6 +262,17 @@ mod tests {
         // Pixel (0,0), z 1: ((0.5 - 1) / 2, (0.5 - 1) / 4, 1); pixel (1,1), z 2: (0.5 * 2 / 2, 0.5 * 2 / 4, 2).
         assert_eq!(m.vertices.positions, vec![DVec3::new(-0.25, -0.125, 1.0), DVec3::new(0.5, 0.25, 2.0)]);
         assert!(m.vertices.colors.is_none(), "no G and B channels");
+    }
+
+    #[test]
+    fn multi_view_depth_takes_the_default_view() {
+        let channels = [("left.Z", [1.0; 4]), ("right.Z", [2.0; 4])];
+        let z = |d: &[u8]| read(d, &cam()).unwrap().vertices.positions[0].z;
+        assert_eq!(z(&image_with_views(&channels, true, Some(&["right", "left"]))), 2.0);
+        assert_eq!(z(&image(&channels, true)), 1.0, "without multiView: the first '.Z' channel");
+        let mut with_plain = channels.to_vec();
+        with_plain.push(("Z", [3.0; 4]));
+        assert_eq!(z(&image_with_views(&with_plain, true, Some(&["right", "left"]))), 3.0);
     }
 
     #[test]
