@@ -65,9 +65,16 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let mut done = 0u64;
     while done < pre.count {
         let n = reader.fill_points(batch.min(pre.count - done), &mut pd).map_err(|e| {
+            // Uncompressed records sit at fixed offsets; compressed ones have none to give.
+            let at = if pre.compressed {
+                Location::Unknown
+            } else {
+                Location::Byte(pre.offset.saturating_add(done.saturating_mul(record_len as u64)))
+            };
+            let what = if pre.compressed { "LAZ-compressed " } else { "" };
             Error::invalid(
-                Location::Unknown,
-                format!("cannot decode point {done} of {} (file cut short or corrupt?)", pre.count),
+                at,
+                format!("cannot decode {what}points {done}.. of {} (file cut short or corrupt?)", pre.count),
             )
             .with_source(e)
         })?;
@@ -104,6 +111,8 @@ struct Precheck {
     count: u64,
     /// Whether the points are LAZ-compressed.
     compressed: bool,
+    /// Byte offset of the point data.
+    offset: u64,
 }
 
 fn u16_at(d: &[u8], at: usize) -> u16 {
@@ -175,7 +184,7 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<Precheck> {
             }
         }
     }
-    Ok(Precheck { count, compressed })
+    Ok(Precheck { count, compressed, offset })
 }
 
 /// The `LASzip` VLR (user `laszip encoded`, record 22204) lists the items a point record is made of;
