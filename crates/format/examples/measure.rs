@@ -42,6 +42,10 @@ fn main() {
                 e[0] + e[1] + e[2]
             );
         }
+        if let Some(dir) = std::env::var_os("MEASURE_SAVE") {
+            let name = std::path::Path::new(&path).file_name().unwrap();
+            std::fs::write(std::path::Path::new(&dir).join(name).with_extension("q12.mrq"), &bytes).unwrap();
+        }
         let all: usize = h.levels.iter().map(|l| l.mesh.vertex_count()).sum();
         let mut best = f64::INFINITY;
         for _ in 0..5 {

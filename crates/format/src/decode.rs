@@ -296,9 +296,8 @@ pub fn decode_level(
             }
         }
         // §5.5: the name set and splits.
-        let mut names: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
-        names.sort_unstable();
-        names.dedup();
+        // Predicted names, sorted once (radix); `name_of[c]` = the index of corner c's name.
+        let (mut names, mut name_of) = sort_names(&pred);
         let r = &mut st[s::EXTRA_NAMES];
         let ne = r.varint_max(nv as u64, "extra name count")? as usize;
         let mut extras = Vec::with_capacity(ne);
@@ -317,8 +316,25 @@ pub fn decode_level(
             extras.push(name);
         }
         if !extras.is_empty() {
-            names.extend(extras);
-            names.sort_unstable();
+            // Merge the extras in and shift the corners' name indices.
+            let mut merged = Vec::with_capacity(names.len() + extras.len());
+            let mut shift = Vec::with_capacity(names.len());
+            let mut e = 0;
+            for &n in &names {
+                while e < extras.len() && extras[e] < n {
+                    merged.push(extras[e]);
+                    e += 1;
+                }
+                shift.push(merged.len() as u32);
+                merged.push(n);
+            }
+            merged.extend_from_slice(&extras[e..]);
+            for x in &mut name_of {
+                if *x != NONE {
+                    *x = shift[*x as usize];
+                }
+            }
+            names = merged;
         }
         let mut count = vec![1u32; names.len()];
         let r = &mut st[s::SPLITS];
@@ -394,7 +410,7 @@ pub fn decode_level(
                 };
                 continue;
             }
-            let i = names.binary_search(&pred[c]).expect("predicted names are in the set");
+            let i = name_of[c] as usize;
             let k2 = count[i];
             if k2 == 0 {
                 return Err(st[s::CHOICES].invalid(format!("corner {c} names {} which has no vertex", pred[c])));
@@ -509,4 +525,40 @@ fn finish(
         r.finish()?;
     }
     Ok(out)
+}
+
+/// The sorted distinct predicted names, and per corner the index of its name (`NONE` for corners
+/// without a prediction). LSD radix sort on 11-bit digits: linear in the corner count.
+fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
+    let mut idx: Vec<u32> = (0..pred.len() as u32).filter(|&c| pred[c as usize] != u64::MAX).collect();
+    let max = idx.iter().map(|&c| pred[c as usize]).max().unwrap_or(0);
+    let bits = 64 - max.leading_zeros();
+    let mut tmp = vec![0u32; idx.len()];
+    let mut shift = 0;
+    while shift < bits {
+        let mut count = [0usize; 2049];
+        for &c in &idx {
+            count[((pred[c as usize] >> shift) & 2047) as usize + 1] += 1;
+        }
+        for i in 0..2048 {
+            count[i + 1] += count[i];
+        }
+        for &c in &idx {
+            let d = ((pred[c as usize] >> shift) & 2047) as usize;
+            tmp[count[d]] = c;
+            count[d] += 1;
+        }
+        std::mem::swap(&mut idx, &mut tmp);
+        shift += 11;
+    }
+    let mut names = Vec::new();
+    let mut name_of = vec![NONE; pred.len()];
+    for &c in &idx {
+        let key = pred[c as usize];
+        if names.last() != Some(&key) {
+            names.push(key);
+        }
+        name_of[c as usize] = names.len() as u32 - 1;
+    }
+    (names, name_of)
 }

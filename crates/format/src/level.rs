@@ -322,7 +322,9 @@ pub fn geometry_pass<E>(
                 let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
                 let n = b - a;
                 let i = c as usize - a;
-                for u in [topo.indices[a + (i + n - 1) % n], topo.indices[a + (i + 1) % n]] {
+                let prev = if i == 0 { b - 1 } else { a + i - 1 };
+                let next = if i + 1 == n { a } else { a + i + 1 };
+                for u in [topo.indices[prev], topo.indices[next]] {
                     let u = u as usize;
                     if u < v && ctx[u] != NONE {
                         for k in 0..3 {
@@ -366,7 +368,9 @@ pub fn geometry_pass<E>(
             let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
             let n = b - a;
             let i = c as usize - a;
-            for u in [topo.indices[a + (i + n - 1) % n], topo.indices[a + (i + 1) % n]] {
+            let prev = if i == 0 { b - 1 } else { a + i - 1 };
+            let next = if i + 1 == n { a } else { a + i + 1 };
+            for u in [topo.indices[prev], topo.indices[next]] {
                 let u = u as usize;
                 if ctx[u] != NONE || u < v {
                     let l = lp(u);
