@@ -189,7 +189,7 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<()> {
                 Location::Unknown,
                 format!(
                     "EXR part {k} holds deep data (several samples per pixel), which octowrap does not read; \
-                     flatten it first (e.g. with OpenEXR's exrmaketiled or a compositor)"
+                     flatten it to a regular image first"
                 ),
             ));
         }

@@ -43,8 +43,13 @@ const BATCH_BYTES: usize = 16 << 20;
 /// Reads a whole LAS or LAZ input.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let pre = precheck(data, opts)?;
-    let mut reader = las::Reader::new(Cursor::new(data.to_vec()))
-        .map_err(|e| Error::invalid(Location::Unknown, "cannot read the LAS header and VLRs").with_source(e))?;
+    let mut reader = las::Reader::new(Cursor::new(data.to_vec())).map_err(|e| {
+        Error::invalid(
+            Location::Unknown,
+            "cannot read the LAS header, its VLRs or the LAZ chunk table (file cut short?)",
+        )
+        .with_source(e)
+    })?;
     let header = reader.header();
     let declared = header.number_of_points();
     if declared != pre.count {
