@@ -46,6 +46,24 @@ fn main() {
             let name = std::path::Path::new(&path).file_name().unwrap();
             std::fs::write(std::path::Path::new(&dir).join(name).with_extension("q12.mrq"), &bytes).unwrap();
         }
+        if let Some(p) = octowrap_format::fuzzing::payloads(&bytes).and_then(|p| p.last().cloned()) {
+            let names = [
+                "masks", "depths", "rot", "created", "sizes", "corners", "extra", "splits", "exc", "choices", "raw",
+                "geo",
+            ];
+            let sizes: Vec<usize> =
+                (0..12).map(|i| u32::from_le_bytes(p[16 + 4 * i..20 + 4 * i].try_into().unwrap()) as usize).collect();
+            let mut at = 64;
+            let mut line = String::from("  finest level streams (raw -> zstd bytes):");
+            for (i, &n) in sizes.iter().enumerate() {
+                if n > 0 {
+                    let z = zstd::bulk::compress(&p[at..at + n], 19).unwrap().len();
+                    line += &[" ", names[i], "=", &n.to_string(), "->", &z.to_string()].concat();
+                }
+                at += n;
+            }
+            println!("{line}");
+        }
         let all: usize = h.levels.iter().map(|l| l.mesh.vertex_count()).sum();
         let mut best = f64::INFINITY;
         for _ in 0..5 {

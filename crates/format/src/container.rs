@@ -192,7 +192,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
     if h.flags & FLAG_TIED != 0 && h.flags & FLAG_CUBE == 0 {
         return Err(bad(12, "the grid is tied to a cube the file does not record".into()));
     }
-    if h.flags & FLAG_CUBE == 0 && (h.cube_min != [0.0; 3] || h.cube_max != [0.0; 3]) {
+    if h.flags & FLAG_CUBE == 0 && h.cube_min.iter().chain(&h.cube_max).any(|x| x.to_bits() != 0) {
         return Err(bad(56, "cube fields must be zero when no cube is recorded".into()));
     }
     if h.metadata_size > limits.max_metadata_bytes {

@@ -56,6 +56,7 @@ pub struct GridInfo {
 }
 
 /// Decodes level `k`'s decompressed payload.
+#[allow(clippy::too_many_lines)] // one pass through spec §4-§5, in the spec's order
 pub fn decode_level(
     k: u32,
     payload: &[u8],
@@ -236,23 +237,12 @@ pub fn decode_level(
             for pf in 0..pp.face_count() {
                 let face = pp.face(pf);
                 let n = face.len();
-                let mut mask_bytes = [0u8; 32];
-                let nb = n.div_ceil(8);
-                let mut bits = Vec::new();
-                for b in 0..nb {
-                    let m = st[s::CHILD_MASKS].u8()?;
-                    let valid = n - 8 * b;
-                    if valid < 8 && m >> valid != 0 {
-                        return Err(st[s::CHILD_MASKS].invalid("child mask has bits beyond the face's corners"));
-                    }
-                    if b < 32 {
-                        mask_bytes[b] = m;
-                    } else {
-                        bits.push(m);
-                    }
+                let mask = st[s::CHILD_MASKS].bytes(n.div_ceil(8))?;
+                if n % 8 != 0 && mask[n / 8] >> (n % 8) != 0 {
+                    return Err(st[s::CHILD_MASKS].invalid("child mask has bits beyond the face's corners"));
                 }
                 for qd in 0..n {
-                    let m = if qd / 8 < 32 { mask_bytes[qd / 8] } else { bits[qd / 8 - 32] };
+                    let m = mask[qd / 8];
                     if m >> (qd % 8) & 1 == 0 {
                         continue;
                     }
@@ -536,7 +526,7 @@ fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
     let mut tmp = vec![0u32; idx.len()];
     let mut shift = 0;
     while shift < bits {
-        let mut count = [0usize; 2049];
+        let mut count = vec![0usize; 2049];
         for &c in &idx {
             count[((pred[c as usize] >> shift) & 2047) as usize + 1] += 1;
         }

@@ -60,6 +60,7 @@ fn face(offsets: &[u32], indices: &[u32], f: usize) -> std::ops::Range<usize> {
 }
 
 /// Encodes level `k` (`parent` is the canonical level `k - 1`, `None` for level 0).
+#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // mirrors decode_level step by step
 pub fn encode_level(
     k: u32,
     input: &InputLevel<'_>,

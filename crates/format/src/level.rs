@@ -127,6 +127,7 @@ impl Parent<'_> {
     /// rotation byte, `0..8`, matching the most corners' lattice points to the slot's canonical
     /// corners) and its vertices in canonical corner order. `Err(f)`: face `f` is not a quad, or
     /// the level has no lattice coordinates.
+    #[allow(clippy::needless_range_loop)]
     pub fn canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
         let (Some(slots), Some(corners)) = (self.slots, self.corners) else { return Err(0) };
         let mut out = Vec::with_capacity(self.face_count());
@@ -218,6 +219,7 @@ fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [
     s
 }
 
+#[allow(clippy::too_many_lines)] // spec §6.2-§6.5 in one place, so both directions share it
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
 /// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates (the
 /// decoder adds the residual, the encoder records `q - prediction` and returns `q`).
@@ -273,8 +275,8 @@ pub fn geometry_pass<E>(
             }
             let f = face_of_corner[c as usize] as usize;
             let pf = topo.parents[f] as usize;
-            let pred = match topo.mode {
-                Mode::Lattice => {
+            let pred = if topo.mode == Mode::Lattice {
+                {
                     let quads = topo.parent_quads.expect("lattice mode has parent quads");
                     let slots = p.slots.expect("lattice parent");
                     let corners = topo.vertex_corners.expect("lattice level");
@@ -284,7 +286,8 @@ pub fn geometry_pass<E>(
                         lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
                     }
                 }
-                _ => {
+            } else {
+                {
                     let face = p.face(pf);
                     let n = face.len();
                     let qd = usize::from(topo.quadrants[f]);

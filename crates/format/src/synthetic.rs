@@ -10,7 +10,7 @@ use octowrap_mesh::{Aabb, DVec3, FaceList, FaceOrigin, Hierarchy, Level, LevelLa
 
 use crate::lattice;
 
-/// A small deterministic generator (SplitMix64).
+/// A small deterministic generator (`SplitMix64`).
 #[derive(Clone, Debug)]
 pub struct Rng(u64);
 

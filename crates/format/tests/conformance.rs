@@ -247,7 +247,9 @@ fn invalid_files_fail_as_stated() {
         );
         for (name, kind, what, bytes) in invalid_set() {
             std::fs::write(dir("invalid").join(name), bytes).unwrap();
-            text.push_str(&format!("| {name} | {kind} | {what} |\n"));
+            text += "| ";
+            text += &[name, kind, what].join(" | ");
+            text += " |\n";
         }
         std::fs::write(&readme, text).unwrap();
     }

@@ -66,7 +66,7 @@ fn garbage_and_mutations_never_panic() {
     for bytes in samples() {
         for _ in 0..2000 {
             let mut b = bytes.clone();
-            for _ in 0..1 + rng.below(4) {
+            for _ in 0..=rng.below(4) {
                 let i = rng.below(b.len());
                 b[i] = rng.next_u64() as u8;
             }
@@ -91,7 +91,7 @@ fn mutated_payloads_never_panic() {
             let k = rng.below(p.len());
             match rng.below(3) {
                 0 => {
-                    for _ in 0..1 + rng.below(3) {
+                    for _ in 0..=rng.below(3) {
                         let i = rng.below(p[k].len());
                         p[k][i] ^= 1 << rng.below(8);
                     }

@@ -93,7 +93,7 @@ fn one_level_meshes_round_trip_exactly() {
 fn partial_decoding_reads_only_the_prefix() {
     let h = cube_hierarchy(5, Edits::default(), 9);
     let bytes = encode(&h, &EncodeOptions::default()).unwrap();
-    let info = read_info(&bytes[..], &Default::default()).unwrap();
+    let info = read_info(&bytes[..], &octowrap_format::Limits::default()).unwrap();
     for k in 0..5u32 {
         let e = &info.levels[k as usize];
         let end = (e.offset + e.stored_size) as usize;
