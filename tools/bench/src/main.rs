@@ -3,6 +3,7 @@
 //! Figures go to `tools/bench/RESULTS.md` with their date.
 #![allow(clippy::print_stdout, clippy::print_stderr)]
 
+mod format;
 mod io;
 mod recon;
 mod util;
@@ -20,6 +21,9 @@ fn main() {
     }
     if run("recon") {
         recon::report();
+    }
+    if run("format") {
+        format::report();
     }
     if run("validate") {
         validate::report();
