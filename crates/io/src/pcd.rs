@@ -37,6 +37,10 @@ use octowrap_geom::DVec3;
 use octowrap_geom::glam::DQuat;
 use octowrap_mesh::{FaceList, PointCloud};
 
+mod lzf;
+
+use lzf::{LZF_MAX_RATIO, lzf_decompress};
+
 use crate::text::{Lines, parse_f64, tokens};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
@@ -581,80 +585,6 @@ fn decompress_body(data: &[u8], h: &Header, opts: &ReadOptions) -> Result<Vec<u8
     })
 }
 
-/// The most one LZF input byte can expand to: a 3-byte back reference copies at most 264 bytes.
-const LZF_MAX_RATIO: u64 = 88;
-
-/// Why an LZF stream could not be expanded.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct LzfError {
-    /// Offset in the compressed input of the instruction at fault.
-    pub(crate) input_offset: usize,
-    /// What went wrong.
-    pub(crate) what: String,
-}
-
-/// Expands an LZF stream (Marc Lehmann's liblzf format, `lzf_d.c`) that must produce exactly
-/// `out_len` bytes.
-///
-/// The stream is a sequence of instructions, each starting with a control byte `c`:
-/// * `c < 32`: a literal run; the next `c + 1` bytes are copied as they are;
-/// * otherwise a back reference: `len = c >> 5` (if 7, add the next byte), `off = (c & 31) << 8`
-///   plus the next byte; copy `len + 2` bytes starting `off + 1` bytes back in the output
-///   (the ranges may overlap, which repeats a pattern).
-pub(crate) fn lzf_decompress(input: &[u8], out_len: usize) -> Result<Vec<u8>, LzfError> {
-    let mut out = Vec::with_capacity(out_len);
-    let mut ip = 0usize;
-    let err = |at: usize, what: String| LzfError { input_offset: at, what };
-    while ip < input.len() {
-        let at = ip;
-        let ctrl = usize::from(input[ip]);
-        ip += 1;
-        if ctrl < 32 {
-            let run = ctrl + 1;
-            let lit = input
-                .get(ip..ip + run)
-                .ok_or_else(|| err(at, format!("literal run of {run} bytes passes the end of the input")))?;
-            if out.len() + run > out_len {
-                return Err(err(at, format!("output exceeds the declared {out_len} bytes")));
-            }
-            out.extend_from_slice(lit);
-            ip += run;
-        } else {
-            let mut len = ctrl >> 5;
-            if len == 7 {
-                len += usize::from(*input.get(ip).ok_or_else(|| err(at, "back reference cut short".into()))?);
-                ip += 1;
-            }
-            let low = usize::from(*input.get(ip).ok_or_else(|| err(at, "back reference cut short".into()))?);
-            ip += 1;
-            let back = ((ctrl & 0x1f) << 8) + low + 1;
-            let len = len + 2;
-            if back > out.len() {
-                return Err(err(
-                    at,
-                    format!("back reference {back} bytes back, but only {} bytes were produced", out.len()),
-                ));
-            }
-            if out.len() + len > out_len {
-                return Err(err(at, format!("output exceeds the declared {out_len} bytes")));
-            }
-            let from = out.len() - back;
-            if back >= len {
-                out.extend_from_within(from..from + len);
-            } else {
-                for k in 0..len {
-                    let b = out[from + k];
-                    out.push(b);
-                }
-            }
-        }
-    }
-    if out.len() != out_len {
-        return Err(err(input.len(), format!("stream expands to {} bytes, {out_len} were declared", out.len())));
-    }
-    Ok(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -663,16 +593,6 @@ mod tests {
 
     fn opts() -> ReadOptions {
         ReadOptions::default()
-    }
-
-    /// The simplest valid LZF encoder: literal runs of at most 32 bytes.
-    fn lzf_literals(data: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for chunk in data.chunks(32) {
-            out.push((chunk.len() - 1) as u8);
-            out.extend_from_slice(chunk);
-        }
-        out
     }
 
     const HEAD: &str = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n";
@@ -733,7 +653,7 @@ mod tests {
         for (_, _, i) in &recs {
             soa.extend_from_slice(&i.to_le_bytes());
         }
-        let z = lzf_literals(&soa);
+        let z = lzf::tests::literal_runs(&soa);
         let mut v = format!("{HEAD}{RICH_FIELDS}DATA binary_compressed\n").into_bytes();
         v.extend_from_slice(&(z.len() as u32).to_le_bytes());
         v.extend_from_slice(&(soa.len() as u32).to_le_bytes());
@@ -819,31 +739,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn lzf_back_references_and_errors() {
-        // "abcabcabcab": literal "abc", then a reference 3 back of length 8 (ctrl (6 << 5) | 0, low 2).
-        let z = [2, b'a', b'b', b'c', 6 << 5, 2];
-        assert_eq!(lzf_decompress(&z, 11).unwrap(), b"abcabcabcab");
-        // Long reference: len 7 + 3 + 2 = 12 bytes of 'x' one back.
-        assert_eq!(lzf_decompress(&[0, b'x', 7 << 5, 3, 0], 13).unwrap(), vec![b'x'; 13]);
-        assert!(lzf_decompress(&[6 << 5, 0], 8).is_err(), "reference before any output");
-        assert!(lzf_decompress(&[5, 1, 2], 6).is_err(), "literal past the end");
-        assert!(lzf_decompress(&z, 10).is_err(), "more output than declared");
-        assert!(lzf_decompress(&z, 12).is_err(), "less output than declared");
-        assert!(lzf_decompress(&[0, 1, 7 << 5], 20).is_err(), "cut reference");
-    }
-
     proptest! {
-        #[test]
-        fn lzf_never_panics(input in proptest::collection::vec(any::<u8>(), 0..300), n in 0usize..2000) {
-            let _ = lzf_decompress(&input, n);
-        }
-
-        #[test]
-        fn lzf_literal_round_trip(data in proptest::collection::vec(any::<u8>(), 0..300)) {
-            prop_assert_eq!(lzf_decompress(&lzf_literals(&data), data.len()).unwrap(), data);
-        }
-
         #[test]
         fn random_bytes_never_panic(input in proptest::collection::vec(any::<u8>(), 0..400)) {
             let _ = read(&input, &opts());
