@@ -1,0 +1,61 @@
+//! Property: for random hierarchies (random edits, lattice or not) and random quantization, the
+//! decoded file equals the canonical form of the input: topology exactly, every position within
+//! half a grid step on every axis; and encoding is deterministic.
+
+use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
+use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, canonical, decode, encode};
+use octowrap_mesh::Hierarchy;
+use proptest::prelude::*;
+
+fn check(h: &Hierarchy, opts: &EncodeOptions) -> Result<(), TestCaseError> {
+    let bytes = encode(h, opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    prop_assert_eq!(&bytes, &encode(h, opts).unwrap());
+    let want = canonical(h, opts).unwrap();
+    let file = decode(&bytes[..], &DecodeOptions::default()).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let step = file.info.grid.map_or(0.0, |g| g.step);
+    for (g, w) in file.hierarchy.levels.iter().zip(&want.levels) {
+        prop_assert_eq!(&g.mesh.faces, &w.mesh.faces);
+        prop_assert_eq!(&g.origins, &w.origins);
+        prop_assert_eq!(&g.lattice, &w.lattice);
+        for (a, b) in g.mesh.vertices.positions.iter().zip(&w.mesh.vertices.positions) {
+            let err = (*a - *b).abs().max_element();
+            prop_assert!(err <= step * 0.5 * (1.0 + 1e-9) + 1e-12 * b.abs().max_element().max(1.0));
+        }
+    }
+    Ok(())
+}
+
+fn quantization() -> impl Strategy<Value = Quantization> {
+    prop_oneof![
+        Just(Quantization::Exact),
+        (1u32..=24).prop_map(Quantization::Bits),
+        (1e-4f64..0.5).prop_map(Quantization::Step),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn hierarchies_round_trip(
+        seed in any::<u64>(),
+        levels in 1usize..5,
+        remove in 0.0f64..0.5,
+        inner in 0.0f64..0.5,
+        create in 0.0f64..0.3,
+        split in 0.0f64..0.2,
+        join in 0.0f64..0.1,
+        lattice in any::<bool>(),
+        q in quantization(),
+    ) {
+        let edits = Edits { remove, inner, create, split, join, noise: 0.3, shuffle: true };
+        let h = cube_hierarchy(levels, edits, seed);
+        let h = if lattice { h } else { without_lattice(h) };
+        check(&h, &EncodeOptions::with_quantization(q))?;
+    }
+
+    #[test]
+    fn polygon_meshes_round_trip(seed in any::<u64>(), n in 0usize..200, f in 0usize..150, q in quantization()) {
+        check(&Hierarchy::single(polygon_mesh(n, f, seed)), &EncodeOptions::with_quantization(q))?;
+    }
+}
