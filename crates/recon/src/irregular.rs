@@ -60,7 +60,7 @@ impl<'a> Decisions<'a> {
         }
         let mut m = a;
         m.merge(&b);
-        m.fit_plane().is_none_or(|p| p.rms_residual() <= 0.2 * self.cells.voxel())
+        crate::fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * self.cells.voxel())
     }
 
     /// The case and the partner slot of face `key` across its edge `k`.

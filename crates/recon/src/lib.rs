@@ -78,6 +78,7 @@
 #![deny(missing_docs)]
 
 mod extract;
+mod fit;
 mod irregular;
 mod keymap;
 mod lattice;
@@ -346,16 +347,20 @@ pub fn reconstruct_with(
         return Err(ReconError::TooFewDistinct { distinct: tree.distinct, needed: 3 });
     }
     let mut part_times = vec![t.elapsed()];
-    let mut trusted = 0;
-    let finest = loop {
+    // The trusted level is the last before the first level whose median falls below the bound.
+    let mut failed: Option<u32> = None;
+    let (finest, mut trusted) = loop {
         let j = tree.depth();
-        let enough = tree.levels[j as usize].median_count() >= opts.min_median_points;
-        if enough || j <= 1 {
-            trusted = j.max(1);
+        if failed.is_none() && j >= 1 && tree.levels[j as usize].median_count() < opts.min_median_points {
+            failed = Some(j);
         }
+        let trusted_so_far = failed.map_or(j, |f| (f - 1).max(1));
         match opts.max_level {
-            MaxLevel::Auto if (!enough && j >= 1) || j >= AUTO_CAP => break trusted.min(j).max(1),
-            MaxLevel::Level(n) if j >= n => break n,
+            MaxLevel::Auto if failed.is_some() || j >= AUTO_CAP => break (trusted_so_far, trusted_so_far),
+            // Stop once the trusted level is known and the levels the mapping needs exist.
+            MaxLevel::Level(n) if j >= n || (failed.is_some() && j + 1 >= n && j > trusted_so_far) => {
+                break (n, trusted_so_far.min(n));
+            }
             _ => {}
         }
         let t = Instant::now();
@@ -363,8 +368,12 @@ pub fn reconstruct_with(
         tree.push_level();
         part_times.push(t.elapsed());
     };
-    // One level below the finest speeds up the vertex mapping's neighbourhood queries.
-    let keep = (finest + 1).min(MAX_LEVEL);
+    if opts.sparse == SparseMode::Wrap {
+        trusted = finest;
+    }
+    // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, levels
+    // k - 1 and k - 2. Nothing deeper is kept (or built).
+    let keep = (trusted + 1).max(finest.saturating_sub(1)).min(MAX_LEVEL);
     while tree.depth() > keep {
         tree.levels.pop();
         part_times.pop();
@@ -372,15 +381,12 @@ pub fn reconstruct_with(
     while tree.depth() < keep {
         let t = Instant::now();
         tree.push_level();
-        *part_times.last_mut().expect("level 0 exists") += t.elapsed();
+        part_times.push(t.elapsed());
     }
-    if opts.sparse == SparseMode::Wrap {
-        trusted = finest;
-    }
-    let trusted = trusted.min(finest);
     let t = Instant::now();
-    tree.finish();
-    *part_times.last_mut().expect("level 0 exists") += t.elapsed();
+    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback).
+    tree.finish(trusted);
+    part_times[trusted as usize] += t.elapsed();
 
     let mut levels: Vec<Level> = Vec::new();
     let mut reports: Vec<LevelReport> = Vec::new();
@@ -413,23 +419,27 @@ pub fn reconstruct_with(
     levels.push(prev.to_level(&tree));
 
     for j in 1..=finest {
-        let cells = &tree.levels[j as usize];
-        let coarse = &tree.levels[j as usize - 1];
+        let here = tree.levels.get(j as usize);
         let mut rep = LevelReport {
             level: j,
             kind: LevelKind::Wrapped,
-            voxels: cells.len(),
-            median_points: cells.median_count(),
+            voxels: here.map_or(0, octree::Cells::len),
+            median_points: here.map_or(0.0, octree::Cells::median_count),
             faces: 0,
             vertices: 0,
             created: 0,
             oriented_voxels: 0,
             flips: 0,
             dropped: 0,
-            timings: StageTimings { partitioning: part_times[j as usize], ..StageTimings::default() },
+            timings: StageTimings {
+                partitioning: part_times.get(j as usize).copied().unwrap_or_default(),
+                ..StageTimings::default()
+            },
         };
         let mut stage = |s| progress(Progress { level: j, levels: finest, stage: s });
         let next = if j <= trusted {
+            let cells = &tree.levels[j as usize];
+            let coarse = &tree.levels[j as usize - 1];
             // §3.4: mask and regular refinement.
             stage(Stage::Regular);
             let t = Instant::now();
@@ -495,6 +505,7 @@ pub fn reconstruct_with(
         stage(Stage::Mapping);
         let t = Instant::now();
         let mapped = if rep.kind == LevelKind::Wrapped {
+            let cells = &tree.levels[j as usize];
             let face_cells: Vec<u32> = next
                 .slots
                 .iter()

