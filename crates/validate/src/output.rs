@@ -55,6 +55,11 @@ impl Requirement {
         }
     }
 
+    /// The requirement with this [`name`](Self::name).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == name)
+    }
+
     /// Whether `p` meets it.
     pub fn holds(self, p: &Properties) -> bool {
         match self {

@@ -54,8 +54,8 @@ pub struct Args {
     pub paths: Vec<PathBuf>,
     /// Properties that must hold, comma-separated: manifold, oriented, closed, watertight, clean,
     /// intersection-free.
-    #[arg(long, value_delimiter = ',', default_value = "manifold", value_name = "PROPERTY,...")]
-    pub require: Vec<RequireArg>,
+    #[arg(long, value_delimiter = ',', default_value = "manifold", value_name = "PROPERTY,...", value_parser = requirement_parser())]
+    pub require: Vec<Requirement>,
     /// Machine-readable report on standard output.
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<ReportFormat>,
@@ -77,34 +77,12 @@ pub struct Args {
     pub input_args: InputArgs,
 }
 
-/// `--require` values.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum RequireArg {
-    /// Every edge 1 or 2 faces, one fan per vertex, valid indices.
-    Manifold,
-    /// Manifold and consistently oriented.
-    Oriented,
-    /// No boundary edges.
-    Closed,
-    /// Manifold and closed.
-    Watertight,
-    /// No degenerate, zero-area or duplicate faces; finite coordinates.
-    Clean,
-    /// No faces crossing or overlapping (turns on --self-intersections).
-    IntersectionFree,
-}
-
-impl From<RequireArg> for Requirement {
-    fn from(r: RequireArg) -> Self {
-        match r {
-            RequireArg::Manifold => Self::Manifold,
-            RequireArg::Oriented => Self::Oriented,
-            RequireArg::Closed => Self::Closed,
-            RequireArg::Watertight => Self::Watertight,
-            RequireArg::Clean => Self::Clean,
-            RequireArg::IntersectionFree => Self::IntersectionFree,
-        }
-    }
+/// Parses `--require` values by the library's own names (manifold, oriented, ...).
+fn requirement_parser() -> impl clap::builder::TypedValueParser<Value = Requirement> {
+    use clap::builder::TypedValueParser;
+    let names: Vec<&'static str> = Requirement::ALL.iter().map(|r| r.name()).collect();
+    clap::builder::PossibleValuesParser::new(names)
+        .map(|s| Requirement::from_name(&s).expect("the parser only accepts known names"))
 }
 
 /// `--format` values.
@@ -134,7 +112,7 @@ pub enum Weld {
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let files = collect(&args.paths)?;
-    let required: Vec<Requirement> = args.require.iter().map(|&r| r.into()).collect();
+    let required = &args.require;
     let results: Vec<FileResult> = files
         .par_iter()
         .map(|path| {
@@ -149,7 +127,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                     Ok(file) => Outcome::Hierarchy(validate_hierarchy(&file.hierarchy, &o)),
                     Err(e) => Outcome::Unreadable { error: format!("{name}: {e}") },
                 };
-                return FileResult::new(name, outcome, &required);
+                return FileResult::new(name, outcome, required);
             }
             let outcome = match args.input_args.read_detected(path) {
                 Err(e) => Outcome::Unreadable { error: format!("{e:#}") },
@@ -162,7 +140,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                     Outcome::Mesh(validate_mesh(&mesh, &o))
                 }
             };
-            FileResult::new(name, outcome, &required)
+            FileResult::new(name, outcome, required)
         })
         .collect();
 
