@@ -10,7 +10,7 @@
 //!    is one point `(X, Y, Z)`.
 //! 2. Otherwise a **depth image** if there is a depth channel: `Z`; else `<view>.Z` for the
 //!    first (default) view named by the `multiView` attribute; else the first channel ending in
-//!    `.Z`; else `depth`. It needs a [`PinholeCamera`](crate::PinholeCamera)
+//!    `.Z`; else `depth`. It needs a [`PinholeCamera`]
 //!    ([`ReadOptions::camera`], `--camera fx,fy,cx,cy` on the command line); without one the read
 //!    fails with [`ErrorKind::Unsupported`](crate::ErrorKind). Pixel `(u, v)` (absolute pixel
 //!    coordinates: the data window may start away from the origin) with depth `z` becomes
@@ -244,8 +244,10 @@ mod tests {
             .map(|(name, v)| AnyChannel::new(*name, FlatSamples::F32(v.to_vec())))
             .collect::<exr::prelude::SmallVec<_>>();
         let encoding = if compressed { Encoding::SMALL_LOSSLESS } else { Encoding::UNCOMPRESSED };
-        let mut attributes = LayerAttributes::default();
-        attributes.multi_view_names = views.map(|v| v.iter().map(|n| exr::prelude::Text::from(*n)).collect());
+        let attributes = LayerAttributes {
+            multi_view_names: views.map(|v| v.iter().map(|n| exr::prelude::Text::from(*n)).collect()),
+            ..LayerAttributes::default()
+        };
         let layer = Layer::new(Vec2(2, 2), attributes, encoding, AnyChannels::sort(list));
         let mut out = Cursor::new(Vec::new());
         Image::from_layer(layer).write().to_buffered(&mut out).unwrap();
@@ -265,6 +267,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::float_cmp)] // depths are small integers, exact in f32 and f64
     fn multi_view_depth_takes_the_default_view() {
         let channels = [("left.Z", [1.0; 4]), ("right.Z", [2.0; 4])];
         let z = |d: &[u8]| read(d, &cam()).unwrap().vertices.positions[0].z;
