@@ -64,6 +64,9 @@ fn main() {
             }
             println!("{line}");
         }
+        if std::env::var_os("MEASURE_CREATED").is_some() {
+            created_key_orders(&h);
+        }
         let all: usize = h.levels.iter().map(|l| l.mesh.vertex_count()).sum();
         let mut best = f64::INFINITY;
         for _ in 0..5 {
@@ -111,4 +114,46 @@ pub fn residual_entropy(bytes: &[u8]) -> Vec<[f64; 3]> {
         out.push(e);
     }
     out
+}
+
+/// Compressed size of the created faces' slot keys under z-major and Morton order (experiment).
+#[allow(dead_code)]
+pub fn created_key_orders(h: &octowrap_mesh::Hierarchy) {
+    fn spread(x: u32) -> u64 {
+        let mut v = u64::from(x) & 0x1f_ffff;
+        v = (v | v << 32) & 0x1f_0000_0000_ffff;
+        v = (v | v << 16) & 0x1f_0000_ff00_00ff;
+        v = (v | v << 8) & 0x100f_00f0_0f00_f00f;
+        v = (v | v << 4) & 0x10c3_0c30_c30c_30c3;
+        v = (v | v << 2) & 0x1249_2492_4924_9249;
+        v
+    }
+    for (k, l) in h.levels.iter().enumerate().skip(1) {
+        let Some(lat) = &l.lattice else { continue };
+        let n = 1u64 << k;
+        let mut zmaj = Vec::new();
+        let mut mort = Vec::new();
+        for (f, o) in l.origins.iter().enumerate() {
+            if *o == octowrap_mesh::FaceOrigin::Created {
+                let (v, d) = lat.face_slots[f];
+                zmaj.push(((u64::from(v[2]) * n + u64::from(v[1])) * n + u64::from(v[0])) * 6 + u64::from(d));
+                mort.push((spread(v[0]) | spread(v[1]) << 1 | spread(v[2]) << 2) * 6 + u64::from(d));
+            }
+        }
+        let size = |mut keys: Vec<u64>| {
+            keys.sort_unstable();
+            let mut b = Vec::new();
+            for (i, &x) in keys.iter().enumerate() {
+                let mut g = if i == 0 { x } else { x - keys[i - 1] - 1 };
+                while g >= 0x80 {
+                    b.push((g as u8) | 0x80);
+                    g >>= 7;
+                }
+                b.push(g as u8);
+            }
+            zstd::bulk::compress(&b, 19).unwrap().len()
+        };
+        let c = zmaj.len();
+        println!("  level {k}: {c} created, z-major {} B, Morton {} B", size(zmaj), size(mort));
+    }
 }

@@ -148,7 +148,7 @@ pub fn decode_level(
         }
         let mut prev = 0i64;
         for c in 0..nc {
-            prev += unzigzag(st[s::CORNERS].varint()?);
+            prev = prev.wrapping_add(unzigzag(st[s::CORNERS].varint()?));
             if prev < 0 || prev >= nv as i64 {
                 return Err(st[s::CORNERS].invalid(format!("vertex index {prev} out of range 0..{nv}")));
             }
@@ -174,7 +174,7 @@ pub fn decode_level(
                 st[s::CHILD_MASKS].invalid(format!("lattice mode needs a lattice parent of quads (parent face {f})"))
             })?;
             let pslots = pp.slots.expect("checked");
-            let n = 1u64 << (k + 1);
+            let max_key = 6u64 << (3 * k); // slot keys at depth k are below 6 N^3 (k <= 20)
             let mut depth_byte = 0u8;
             let mut sub = 0usize;
             for (pf, pslot) in pslots.iter().enumerate() {
@@ -206,7 +206,7 @@ pub fn decode_level(
             }
             let mut key = 0u64;
             for i in sub..nf {
-                let gap = st[s::CREATED_KEYS].varint_max(6 * n * n * n, "slot key gap")?;
+                let gap = st[s::CREATED_KEYS].varint_max(max_key, "slot key gap")?;
                 key = if i == sub { gap } else { key + 1 + gap };
                 let slot = lattice::slot_from_key(key, k)
                     .ok_or_else(|| st[s::CREATED_KEYS].invalid(format!("slot key {key} outside level {k}")))?;
@@ -373,7 +373,7 @@ pub fn decode_level(
         let mut prev_explicit = 0i64;
         for c in 0..nc {
             if pred[c] == u64::MAX {
-                prev_explicit += unzigzag(st[s::CORNERS].varint()?);
+                prev_explicit = prev_explicit.wrapping_add(unzigzag(st[s::CORNERS].varint()?));
                 if prev_explicit < 0 || prev_explicit >= nv as i64 {
                     return Err(st[s::CORNERS].invalid(format!("vertex index {prev_explicit} out of range 0..{nv}")));
                 }

@@ -73,7 +73,12 @@ pub fn rotated(rot: u8, k: usize) -> usize {
 
 /// `a / b` rounded to the nearest integer, halves upwards (`b > 0`).
 pub fn round_div(a: i64, b: i64) -> i64 {
-    (2 * a + b).div_euclid(2 * b)
+    if a.unsigned_abs() < 1 << 60 && b < 1 << 60 {
+        (2 * a + b).div_euclid(2 * b)
+    } else {
+        // Exact for any operands a hostile file can produce.
+        ((2 * i128::from(a) + i128::from(b)).div_euclid(2 * i128::from(b))) as i64
+    }
 }
 
 /// Edge numbering of a polygon mesh in order of first appearance (spec §5.4): for every face
@@ -331,7 +336,7 @@ pub fn geometry_pass<E>(
                     let u = u as usize;
                     if u < v && ctx[u] != NONE {
                         for k in 0..3 {
-                            sum[k] += bias[u][k];
+                            sum[k] = sum[k].saturating_add(bias[u][k]);
                         }
                         count += 1;
                     }
@@ -340,7 +345,7 @@ pub fn geometry_pass<E>(
             let mut pred = base;
             if count > 0 {
                 for k in 0..3 {
-                    pred[k] += round_div(3 * sum[k], 4 * count);
+                    pred[k] += round_div(sum[k].saturating_mul(3), 4 * count);
                 }
             }
             q[v] = step(v, clamp(pred))?;
@@ -378,7 +383,7 @@ pub fn geometry_pass<E>(
                 if ctx[u] != NONE || u < v {
                     let l = lp(u);
                     for k in 0..3 {
-                        sum[k] += q[u][k] - l[k];
+                        sum[k] = sum[k].saturating_add(q[u][k] - l[k]);
                     }
                     count += 1;
                 }
