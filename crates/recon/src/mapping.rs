@@ -174,9 +174,22 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
 /// radii are).
 pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
     let l = crate::octree::voxel_size(level);
-    let (positions, planes): (Vec<DVec3>, Vec<Option<TangentPlane>>) = start
+    // Visit the vertices along the Morton curve, so consecutive queries touch nearby voxels and
+    // points (the output order is unchanged).
+    let cells_per_axis = f64::from(1u32 << level) - 1.0;
+    let mut order: Vec<(u64, u32)> = start
         .par_iter()
-        .map(|&x| {
+        .enumerate()
+        .map(|(i, x)| {
+            let c = (*x / l).floor().clamp(DVec3::ZERO, DVec3::splat(cells_per_axis));
+            (morton::encode(c.x as u32, c.y as u32, c.z as u32), i as u32)
+        })
+        .collect();
+    order.par_sort_unstable();
+    let mapped: Vec<(DVec3, Option<TangentPlane>)> = order
+        .par_iter()
+        .map(|&(_, i)| {
+            let x = start[i as usize];
             let mut m = Moments::default();
             for up in 1..=2u32 {
                 let Some(q) = level.checked_sub(up) else { break };
@@ -191,6 +204,12 @@ pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
                 None => (x, None),
             }
         })
-        .unzip();
+        .collect();
+    let mut positions = vec![DVec3::ZERO; start.len()];
+    let mut planes = vec![None; start.len()];
+    for (&(_, i), (p, plane)) in order.iter().zip(mapped) {
+        positions[i as usize] = p;
+        planes[i as usize] = plane;
+    }
     Mapped { positions, planes }
 }

