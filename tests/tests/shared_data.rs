@@ -27,7 +27,8 @@ const COUNTS: &[(&str, usize, usize)] = &[
     ("e57/bunnyInt24.e57", 30_571, 0),
     ("e57/bunnyInt32.e57", 30_571, 0),
     ("e57/tinyCartesianFloatRgb.e57", 2_090, 0),
-    ("e57/tiny_spherical.e57", 360, 0),
+    // 360 records, every other one direction-only: 180 points (360 with keep_invalid, below).
+    ("e57/tiny_spherical.e57", 180, 0),
     // lidar-las/PROVENANCE.md
     ("lidar-las/Megaplot.laz", 81_590, 0),
     ("lidar-las/MixedConifer.laz", 37_657, 0),
@@ -51,11 +52,13 @@ const COUNTS: &[(&str, usize, usize)] = &[
     ("mesh-defects/trimesh/unit_cube.STL", 36, 12),
     // meshlab-rangemap/PROVENANCE.md
     ("meshlab-rangemap/face000.ply.gz", 85_849, 166_259),
-    // pcl-pcd/PROVENANCE.md (organised clouds keep their NaN pixels: 640x480 = 307,200)
+    // pcl-pcd/PROVENANCE.md
     ("pcl-pcd/bun0.pcd", 397, 0),
     ("pcl-pcd/bunny.pcd", 397, 0),
     ("pcl-pcd/milk.pcd", 13_704, 0),
-    ("pcl-pcd/table_scene_mug_stereo_textured.pcd", 307_200, 0),
+    // 640x480 = 307,200 records, of which the pixels without a measurement (NaN) are dropped;
+    // all 307,200 with keep_invalid, below.
+    ("pcl-pcd/table_scene_mug_stereo_textured.pcd", 209_280, 0),
     // stanford-bunny/PROVENANCE.md
     ("stanford-bunny/reconstruction/bun_zipper.ply", 35_947, 69_451),
     ("stanford-bunny/reconstruction/bun_zipper_res2.ply", 8_171, 16_301),
@@ -102,6 +105,21 @@ fn every_listed_file_reads_with_its_provenance_counts() {
         }
     }
     assert!(failures.is_empty(), "{} files misread:\n{}", failures.len(), failures.join("\n"));
+}
+
+#[test]
+fn keep_invalid_gives_the_record_counts_of_provenance() {
+    let mut opts = ReadOptions::default();
+    opts.keep_invalid = true;
+    for (rel, records, valid) in
+        [("e57/tiny_spherical.e57", 360, 180), ("pcl-pcd/table_scene_mug_stereo_textured.pcd", 307_200, 209_280)]
+    {
+        let Some(path) = shared_file(rel) else { continue };
+        let m = read_path(&path, &opts).unwrap();
+        assert_eq!(m.vertex_count(), records, "{rel}");
+        assert_eq!(m.vertex_count() - m.vertices.non_finite_count(), valid, "{rel}");
+        assert!(m.vertices.attributes_consistent(), "{rel}");
+    }
 }
 
 #[test]

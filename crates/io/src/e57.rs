@@ -11,7 +11,9 @@
 //! * Cartesian coordinates, or spherical ones (range, azimuth, elevation) converted to Cartesian;
 //!   integer, scaled-integer and float encodings alike, as `f64`.
 //! * Points whose coordinates are invalid are skipped: `cartesianInvalidState` 1 (direction
-//!   only) or 2 (no data), `sphericalInvalidState` 1 (direction only, no range) or 2.
+//!   only) or 2 (no data), `sphericalInvalidState` 1 (direction only, no range) or 2. With
+//!   [`ReadOptions::keep_invalid`](crate::ReadOptions) they are kept as NaN points instead, so the
+//!   count equals the file's record count.
 //! * Colours, when a scan has them: normalised by the scan's `colorLimits` and scaled to 0-255;
 //!   a point whose colour is marked invalid gets black.
 //! * Intensities, when a scan has them: the values as stored (not normalised); an invalid one is 0.
@@ -63,8 +65,12 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         points.normalize_color(true);
         for (i, p) in points.enumerate() {
             let p = p.map_err(|e| convert(&format!("cannot read point {i} of point cloud {k}"), &e))?;
-            let e57::CartesianCoordinate::Valid { x, y, z } = p.cartesian else { continue };
-            cloud.positions.push(DVec3::new(x, y, z));
+            let position = match p.cartesian {
+                e57::CartesianCoordinate::Valid { x, y, z } => DVec3::new(x, y, z),
+                _ if opts.keep_invalid => DVec3::NAN,
+                _ => continue,
+            };
+            cloud.positions.push(position);
             if let Some(colors) = &mut cloud.colors {
                 let c = p.color.map_or([0.0; 3], |c| [c.red, c.green, c.blue]);
                 colors.push(c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8));

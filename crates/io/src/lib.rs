@@ -244,6 +244,11 @@ pub struct ReadOptions {
     pub format: Option<Format>,
     /// Camera for depth images (OpenEXR `Z`). Without it, an EXR must hold XYZ positions in RGB.
     pub camera: Option<PinholeCamera>,
+    /// Keep the records that hold no position as NaN points instead of dropping them: the pixels
+    /// without a measurement of an organised PCD cloud, and E57 records marked invalid or
+    /// direction-only. The point count then equals the file's record count (and an organised
+    /// cloud keeps its `width x height` grid). Default false: such records carry no geometry.
+    pub keep_invalid: bool,
 }
 
 /// How to write an output.

@@ -25,9 +25,11 @@
 //!   missing `HEIGHT` means 1; missing `POINTS` means `WIDTH × HEIGHT`.
 //!
 //! # Decisions
-//! * **NaN points are dropped.** Organised clouds (`HEIGHT > 1`, a depth camera's pixel grid)
-//!   mark pixels without a measurement by `x = y = z = NaN`. They carry no geometry, so every point
-//!   whose `x`, `y` or `z` is NaN is left out; the image grid is not kept.
+//! * **NaN points are dropped** unless [`ReadOptions::keep_invalid`](crate::ReadOptions) is set.
+//!   Organised clouds (`HEIGHT > 1`, a depth camera's pixel grid) mark pixels without a measurement
+//!   by `x = y = z = NaN`. They carry no geometry, so by default every point whose `x`, `y` or `z`
+//!   is NaN is left out and the image grid is not kept; with `keep_invalid` every record becomes a
+//!   point, in file order, and the grid is `WIDTH x HEIGHT` again.
 //! * **`VIEWPOINT tx ty tz qw qx qy qz` is applied**: it is the sensor pose (PCL's
 //!   `sensor_origin_` and `sensor_orientation_`), and each point `p` (and normal `n`) is brought
 //!   into the common frame as `R(q) p + t` (`R(q) n`). The default `0 0 0 1 0 0 0` changes
@@ -49,16 +51,16 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let header = Header::parse(data)?;
     let max = opts.limits.max_points;
     let mut cloud = match header.data {
-        DataKind::Ascii => read_ascii(data, &header, max)?,
+        DataKind::Ascii => read_ascii(data, &header, max, opts.keep_invalid)?,
         DataKind::Binary => {
             let body = data.get(header.data_start..).unwrap_or_default();
             let at = Location::Byte(header.data_start as u64);
             justify(header.points, header.point_step as u64, body.len(), max, "points", at)?;
-            read_binary(body, &header, Layout::Interleaved, header.data_start as u64)?
+            read_binary(body, &header, Layout::Interleaved, header.data_start as u64, opts.keep_invalid)?
         }
         DataKind::Compressed => {
             let body = decompress_body(data, &header, opts)?;
-            read_binary(&body, &header, Layout::FieldMajor, header.data_start as u64)?
+            read_binary(&body, &header, Layout::FieldMajor, header.data_start as u64, opts.keep_invalid)?
         }
     };
     if let Some((t, q)) = header.viewpoint {
@@ -343,7 +345,7 @@ enum Layout {
 
 /// Reads points from a binary body whose size the caller has checked to hold `header.points`
 /// records (every access is still bounds-checked). `base` is the body's offset in the file.
-fn read_binary(body: &[u8], h: &Header, layout: Layout, base: u64) -> Result<PointCloud> {
+fn read_binary(body: &[u8], h: &Header, layout: Layout, base: u64, keep_invalid: bool) -> Result<PointCloud> {
     let n = usize::try_from(h.points).map_err(|_| Error::limit(Location::Byte(base), "too many points"))?;
     let raw = |i: usize, f: usize| -> Result<&[u8]> {
         let field = &h.fields[f];
@@ -357,7 +359,7 @@ fn read_binary(body: &[u8], h: &Header, layout: Layout, base: u64) -> Result<Poi
             .and_then(|s| body.get(s..s.checked_add(field.size)?))
             .ok_or_else(|| Error::invalid(Location::Byte(base), format!("PCD body too short for point {i}")))
     };
-    let mut b = Builder::new(h, n);
+    let mut b = Builder::new(h, n, keep_invalid);
     for i in 0..n {
         b.push(
             h,
@@ -368,15 +370,17 @@ fn read_binary(body: &[u8], h: &Header, layout: Layout, base: u64) -> Result<Poi
     Ok(b.finish())
 }
 
-/// Collects points, dropping NaN ones.
+/// Collects points, dropping NaN ones unless asked to keep them.
 struct Builder {
     cloud: PointCloud,
+    keep_invalid: bool,
 }
 
 impl Builder {
-    fn new(h: &Header, n: usize) -> Self {
+    fn new(h: &Header, n: usize, keep_invalid: bool) -> Self {
         let r = &h.roles;
         Self {
+            keep_invalid,
             cloud: PointCloud {
                 positions: Vec::with_capacity(n),
                 normals: r.normal.map(|_| Vec::with_capacity(n)),
@@ -396,7 +400,7 @@ impl Builder {
     ) -> Result<()> {
         let r = &h.roles;
         let p = DVec3::new(value(r.xyz[0])?, value(r.xyz[1])?, value(r.xyz[2])?);
-        if p.is_nan() {
+        if p.is_nan() && !self.keep_invalid {
             return Ok(());
         }
         self.cloud.positions.push(p);
@@ -436,7 +440,7 @@ fn decode(bytes: &[u8], ty: u8) -> f64 {
     }
 }
 
-fn read_ascii(data: &[u8], h: &Header, max: u64) -> Result<PointCloud> {
+fn read_ascii(data: &[u8], h: &Header, max: u64, keep_invalid: bool) -> Result<PointCloud> {
     let body = data.get(h.data_start..).unwrap_or_default();
     // Each value takes at least one character and one separator; the last point's line may
     // lack its newline, hence the one extra byte granted.
@@ -451,7 +455,7 @@ fn read_ascii(data: &[u8], h: &Header, max: u64) -> Result<PointCloud> {
         Location::Line(k) => Location::Line(k + line0),
         other => other,
     };
-    let mut b = Builder::new(h, n);
+    let mut b = Builder::new(h, n, keep_invalid);
     let mut vals = vec![0f64; h.fields.len()];
     let mut read = 0usize;
     while read < n {

@@ -21,6 +21,12 @@ pub struct InputArgs {
     /// hold XYZ positions in its R, G, B channels.
     #[arg(long, value_name = "FX,FY,CX,CY", value_parser = parse_camera)]
     pub camera: Option<PinholeCamera>,
+
+    /// Keep records that hold no position (NaN pixels of organised PCD clouds, invalid E57
+    /// records) as NaN points, so the point count equals the file's record count. By default they
+    /// are dropped; `reconstruct` refuses NaN points.
+    #[arg(long)]
+    pub keep_invalid: bool,
 }
 
 impl InputArgs {
@@ -29,6 +35,7 @@ impl InputArgs {
         let mut o = ReadOptions::default();
         o.format = self.from;
         o.camera = self.camera;
+        o.keep_invalid = self.keep_invalid;
         o
     }
 
