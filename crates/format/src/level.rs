@@ -333,13 +333,13 @@ pub fn geometry_pass<E>(
                 let prev = if i == 0 { b - 1 } else { a + i - 1 };
                 let next = if i + 1 == n { a } else { a + i + 1 };
                 for u in [topo.indices[prev], topo.indices[next]] {
+                    // Branch-free: the bias of a vertex not decoded yet is still zero.
                     let u = u as usize;
-                    if u < v && ctx[u] != NONE {
-                        for k in 0..3 {
-                            sum[k] = sum[k].saturating_add(bias[u][k]);
-                        }
-                        count += 1;
+                    let counted = u < v && ctx[u] != NONE;
+                    for k in 0..3 {
+                        sum[k] = sum[k].saturating_add(bias[u][k]);
                     }
+                    count += i64::from(counted);
                 }
             }
             let mut pred = base;
