@@ -5,6 +5,12 @@
 //! mapping (equation (1)); a vertex without a plane (too few points) keeps its place. Passes are
 //! synchronous (every vertex reads the previous pass), so the result does not depend on the
 //! number of threads. See the crate docs for the measured effect on accuracy and the default.
+//!
+//! The centroid is summed face by face: every face adds, at each of its corners, the two
+//! neighbouring corners. An interior edge lies on two faces, so every neighbour of an interior
+//! vertex counts twice and the average is the plain one-ring centroid; at a boundary vertex the
+//! two boundary neighbours count once and the others twice. This needs no adjacency lists
+//! (8 bytes per vertex instead of 64 per face), which matters at 2 million faces.
 
 use octowrap_geom::DVec3;
 use rayon::prelude::*;
@@ -17,28 +23,27 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
         return;
     }
     let n = positions.len();
-    let mut edges: Vec<(u32, u32)> =
-        quads.iter().flat_map(|q| (0..4).flat_map(move |k| [(q[k], q[(k + 1) % 4]), (q[(k + 1) % 4], q[k])])).collect();
-    edges.par_sort_unstable();
-    edges.dedup();
-    let mut first = vec![0u32; n + 1];
-    for &(a, _) in &edges {
-        first[a as usize + 1] += 1;
+    let mut sum = vec![DVec3::ZERO; n];
+    let mut count = vec![0u32; n];
+    for q in quads {
+        for k in 0..4 {
+            count[q[k] as usize] += 2;
+        }
     }
-    for i in 0..n {
-        first[i + 1] += first[i];
-    }
-    let mut next = positions.to_vec();
     for _ in 0..passes {
-        next.par_iter_mut().enumerate().for_each(|(v, out)| {
-            let ring = &edges[first[v] as usize..first[v + 1] as usize];
-            let Some(plane) = planes[v] else { return };
-            if ring.is_empty() {
-                return;
+        sum.iter_mut().for_each(|s| *s = DVec3::ZERO);
+        for q in quads {
+            let p = q.map(|v| positions[v as usize]);
+            for k in 0..4 {
+                sum[q[k] as usize] += p[(k + 1) % 4] + p[(k + 3) % 4];
             }
-            let c = ring.iter().map(|&(_, w)| positions[w as usize]).sum::<DVec3>() / ring.len() as f64;
-            *out = plane.project(c);
+        }
+        positions.par_iter_mut().enumerate().for_each(|(v, out)| {
+            if let Some(plane) = planes[v] {
+                if count[v] > 0 {
+                    *out = plane.project(sum[v] / f64::from(count[v]));
+                }
+            }
         });
-        positions.copy_from_slice(&next);
     }
 }
