@@ -31,6 +31,13 @@ fn row(name: &str, h: &Hierarchy) {
         enc_s * 1e3,
         all_vertices as f64 / dec_s / 1e6,
     );
+    // The decoded finest level, for the Draco comparison at the end of the section.
+    let tmp = std::env::temp_dir().join("octowrap-bench-format");
+    if std::fs::create_dir_all(&tmp).is_ok() && name.contains("recon") {
+        let path = tmp.join(format!("{}.ply", name.split(' ').next().unwrap_or("mesh")));
+        let mesh = &file.hierarchy.levels.last().expect("levels").mesh;
+        let _ = octowrap_io::write_path(&path, mesh, &octowrap_io::WriteOptions::default());
+    }
     if let Some(dir) = std::env::var_os("OCTOWRAP_DUMP_FINEST") {
         let path = std::path::Path::new(&dir).join(format!("{}.ply", name.replace([' ', '/', ','], "_")));
         let exact = EncodeOptions::with_quantization(Quantization::Exact);
@@ -73,7 +80,9 @@ pub fn report() {
     println!("few bytes of the file). Decode: all levels, one core, M vertices (all levels) per second.");
     println!("Modes per level: 0 base, 1 generic refinement, 2 lattice refinement.");
     println!();
-    println!("| hierarchy | finest level | finest vertices | bytes | bits/vertex | topology | geometry | encode ms | decode Mv/s | modes |");
+    println!(
+        "| hierarchy | finest level | finest vertices | bytes | bits/vertex | topology | geometry | encode ms | decode Mv/s | modes |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     row("synthetic cube, lattice", &cube_hierarchy(8, Edits::default(), 1));
     row("synthetic cube, no lattice", &without_lattice(cube_hierarchy(8, Edits::default(), 1)));
@@ -90,6 +99,29 @@ pub fn report() {
             }
         }
         None => println!("(shared data absent: bunny and dragon skipped)"),
+    }
+    println!();
+    draco();
+}
+
+/// Draco at 12 bits on the same decoded finest levels (triangulated), through
+/// `tools/bench/draco_bits.py` and Python's DracoPy, when available.
+fn draco() {
+    let tmp = std::env::temp_dir().join("octowrap-bench-format");
+    let meshes: Vec<_> = ["bunny.ply", "dragon.ply"].iter().map(|m| tmp.join(m)).filter(|p| p.is_file()).collect();
+    if meshes.is_empty() {
+        return;
+    }
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("draco_bits.py");
+    match std::process::Command::new("python3").arg(&script).args(&meshes).output() {
+        Ok(out) if out.status.success() => {
+            println!("Draco (DracoPy, 12-bit, compression level 10) on the same finest levels alone:");
+            println!();
+            for line in String::from_utf8_lossy(&out.stdout).lines() {
+                println!("    {line}");
+            }
+        }
+        _ => println!("Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy)."),
     }
     println!();
 }
