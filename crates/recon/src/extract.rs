@@ -64,6 +64,7 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 }
 
 /// Links faces and extracts vertices. `slots` sorted; `dec` gives partners.
+#[allow(clippy::needless_range_loop)] // f and k index several parallel arrays at once
 pub(crate) fn extract(slots: &[u64], dec: &Decisions<'_>) -> (Extracted, Vec<BadEdge>) {
     let index = KeyMap::from_keys(slots);
     let face_corners: Vec<[[u32; 3]; 4]> = slots

@@ -10,6 +10,7 @@ use octowrap_geom::{DVec3, Moments, Plane, sym_eigen3};
 
 /// The least-squares plane of the moments, as [`Moments::fit_plane`] gives it: `None` for fewer
 /// than 3 points or non-finite data.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must take the fallback
 pub(crate) fn plane(m: &Moments) -> Option<Plane> {
     if m.count < 3.0 {
         return None;

@@ -324,6 +324,7 @@ pub fn reconstruct(points: &[DVec3], opts: &ReconOptions) -> Result<Hierarchy, R
 
 /// Like [`reconstruct`], reporting progress through `progress` (called on the calling thread at
 /// the start of every stage of every level) and returning per-level figures and timings.
+#[allow(clippy::too_many_lines)] // the pipeline, stage by stage, reads best in one piece
 pub fn reconstruct_with(
     points: &[DVec3],
     opts: &ReconOptions,

@@ -31,7 +31,7 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
         }
     }
     for _ in 0..passes {
-        sum.iter_mut().for_each(|s| *s = DVec3::ZERO);
+        sum.fill(DVec3::ZERO);
         for q in quads {
             let p = q.map(|v| positions[v as usize]);
             for k in 0..4 {

@@ -1,5 +1,5 @@
 //! Which faces may exist: the oriented-sheet mask that keeps open surfaces one-sided
-//! (Keller et al., §3.4 "rules preventing faces of M_j to capture parts of the interior hull", and
+//! (Keller et al., §3.4 "rules preventing faces of `M_j` to capture parts of the interior hull", and
 //! the stop rules 1 and 2 of §3.5).
 //!
 //! Reading: the paper's stop rules (no face "on the opposite of v"; the cavity rule) are stated
@@ -94,7 +94,9 @@ impl Mask {
 /// than a twentieth of a voxel and than three times the largest gap expected from uniform sampling
 /// (`ln k` mean gaps); either way with at least a tenth of the points (and 2) on either side. A single sheet, noisy or curved, has
 /// neither; both sides of a thin plate do.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as "no"
 fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) -> bool {
+    const BINS: usize = 64;
     let k = points.len();
     if k < 6 {
         return false;
@@ -114,7 +116,6 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
     // The valley: few points within half the RMS height.
     let (mut near, mut below, mut above) = (0, 0, 0);
     // The gap, on a histogram of 64 bins (no sort): an empty run wider than the threshold.
-    const BINS: usize = 64;
     let mut hist = [0u32; BINS];
     let width = (hi - lo) / BINS as f64;
     for p in points {
@@ -149,6 +150,7 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
 }
 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
+#[allow(clippy::too_many_lines, clippy::neg_cmp_op_on_partial_ord)] // the four steps read in order; NaN is unreliable
 pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &KeyMap) -> Mask {
     let level = fine.level;
     let h = fine.voxel();

@@ -1,4 +1,4 @@
-//! Real scans: the bunny (two resolutions), the kitten and a LiDAR tile. Skipped, saying so, when
+//! Real scans: the bunny (two resolutions), the kitten and a `LiDAR` tile. Skipped, saying so, when
 //! `../shared/data` is absent.
 #![allow(clippy::print_stderr)]
 

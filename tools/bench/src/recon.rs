@@ -5,6 +5,7 @@
 //! points' bounding-box diagonal, and the wall time to build the hierarchy to that level. Then the
 //! timing targets of the issue, and the effect of relaxation on accuracy.
 
+use std::fmt::Write as _;
 use std::time::Instant;
 
 use octowrap_geom::{Aabb, DVec3};
@@ -300,8 +301,9 @@ fn stage_table(r: &Reconstruction) -> String {
     );
     for l in &r.levels {
         let t = &l.timings;
-        s += &format!(
-            "| {} | {:?} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |\n",
+        let _ = writeln!(
+            s,
+            "| {} | {:?} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
             l.level,
             l.kind,
             l.faces,

@@ -28,8 +28,8 @@ use crate::progress;
 /// level K from 0 (the root cube).
 ///
 /// Examples:
-///   octowrap reconstruct bun_zipper.ply -o bunny.ply
-///   octowrap reconstruct dragon_vrip.ply.gz -o dragon.ply --level 7 --timings
+///   octowrap reconstruct bunny.ply -o bunny-mesh.ply
+///   octowrap reconstruct dragon.ply.gz -o dragon-mesh.ply --level 7 --timings
 ///   octowrap reconstruct scan.laz -o scan.mrq --max-level auto
 ///   octowrap reconstruct kitten.xyz -o kitten.obj --relax-passes 0 --all-levels kitten-levels/
 ///   octowrap reconstruct cloud.ply -o cloud.ply --threads 1

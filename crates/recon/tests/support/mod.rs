@@ -1,5 +1,11 @@
 //! Test support: a small independent manifold checker and synthetic point clouds.
-#![allow(dead_code, clippy::print_stderr)]
+#![allow(
+    dead_code,
+    clippy::print_stderr,
+    clippy::too_many_lines,
+    clippy::items_after_statements,
+    clippy::needless_range_loop
+)]
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -148,7 +154,7 @@ pub fn face_frames(mesh: &Mesh) -> Vec<(DVec3, DVec3)> {
         .collect()
 }
 
-/// A deterministic pseudo-random generator (SplitMix64).
+/// A deterministic pseudo-random generator (`SplitMix64`).
 pub struct Rng(pub u64);
 
 impl Rng {

@@ -1,0 +1,82 @@
+//! `octowrap reconstruct` as a user runs it: outputs, the timing table, levels, errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn octowrap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_octowrap")).args(args).stdin(Stdio::null()).output().expect("runs")
+}
+
+fn kitten() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn writes_the_finest_level_all_levels_and_timings() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("kitten.ply");
+    let levels = dir.path().join("levels");
+    let out = octowrap(&[
+        "reconstruct",
+        kitten().to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+        "--level",
+        "5",
+        "--timings",
+        "--all-levels",
+        levels.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    for column in ["level", "partitioning", "regular", "irregular", "mapping", "relaxation"] {
+        assert!(err.contains(column), "timing table lacks {column}: {err}");
+    }
+    assert_eq!(err.lines().filter(|l| l.trim_start().starts_with(char::is_numeric)).count(), 6, "{err}");
+    let finest = octowrap_io::read_path(&out_path, &octowrap_io::ReadOptions::default()).unwrap();
+    assert!(finest.faces.all_quads() && finest.faces.len() > 1000);
+    for k in 0..=5 {
+        let m = octowrap_io::read_path(&levels.join(format!("level-{k}.ply")), &octowrap_io::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("level {k}: {e}"));
+        assert!(m.faces.all_quads());
+        if k == 0 {
+            assert_eq!(m.faces.len(), 6);
+        }
+        if k == 5 {
+            assert_eq!(m.faces, finest.faces);
+        }
+    }
+}
+
+#[test]
+fn same_bytes_for_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one.ply");
+    let two = dir.path().join("two.ply");
+    for (p, n) in [(&one, "1"), (&two, "2")] {
+        let out = octowrap(&["reconstruct", kitten().to_str().unwrap(), "-o", p.to_str().unwrap(), "-j", n]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    }
+    assert_eq!(std::fs::read(one).unwrap(), std::fs::read(two).unwrap());
+}
+
+#[test]
+fn bad_input_and_bad_output_fail_with_exit_code_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.xyz");
+    std::fs::write(&empty, "").unwrap();
+    let out = octowrap(&["reconstruct", empty.to_str().unwrap(), "-o", dir.path().join("x.ply").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("empty"), "{}", text(&out.stderr));
+    let nan = dir.path().join("nan.xyz");
+    std::fs::write(&nan, "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n").unwrap();
+    let out = octowrap(&["reconstruct", nan.to_str().unwrap(), "-o", dir.path().join("x.ply").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = octowrap(&["reconstruct", kitten().to_str().unwrap(), "-o", dir.path().join("x.xyz").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("cannot hold a mesh"), "{}", text(&out.stderr));
+}
