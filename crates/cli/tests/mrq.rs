@@ -1,0 +1,95 @@
+//! MRQ on the command line: `info`, `extract` and `convert` on the conformance files, and clear
+//! errors (exit code 2) for corrupted or truncated files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn octowrap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_octowrap")).args(args).stdin(Stdio::null()).output().expect("runs")
+}
+
+fn fixture(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/format").join(rel)
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn info_describes_the_levels() {
+    let file = fixture("valid/cube3_lattice_q12.mrq");
+    let out = octowrap(&["info", "--json", file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["format"], "mrq");
+    assert_eq!(v["levels"].as_array().unwrap().len(), 3);
+    assert_eq!(v["grid"]["bits"], 12);
+    assert_eq!(v["grid"]["tied_to_cube"], true);
+    let out = octowrap(&["info", file.to_str().unwrap()]);
+    assert!(text(&out.stdout).contains("bits/vertex"), "{}", text(&out.stdout));
+}
+
+#[test]
+fn extract_gives_back_every_level() {
+    let file = fixture("valid/cube3_lattice_q12.mrq");
+    let decoded = octowrap_format::read_path(&file, &octowrap_format::DecodeOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..3 {
+        let out_path = dir.path().join(format!("l{k}.ply"));
+        let out =
+            octowrap(&["extract", file.to_str().unwrap(), "--level", &k.to_string(), "-o", out_path.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let mesh = octowrap_io::read_path(&out_path, &octowrap_io::ReadOptions::default()).unwrap();
+        let want = &decoded.hierarchy.levels[k].mesh;
+        assert_eq!(mesh.faces, want.faces, "level {k}");
+        for (a, b) in mesh.vertices.positions.iter().zip(&want.vertices.positions) {
+            assert!((*a - *b).abs().max_element() < 1e-6, "level {k}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn meshes_convert_to_mrq_and_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("finest.ply");
+    let mrq = dir.path().join("finest.mrq");
+    let obj = dir.path().join("finest.obj");
+    let src = fixture("valid/cube3_generic_q12.mrq");
+    assert!(octowrap(&["convert", src.to_str().unwrap(), ply.to_str().unwrap()]).status.success());
+    let out = octowrap(&["convert", ply.to_str().unwrap(), mrq.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = octowrap(&["convert", mrq.to_str().unwrap(), obj.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let a = octowrap_io::read_path(&ply, &octowrap_io::ReadOptions::default()).unwrap();
+    let b = octowrap_io::read_path(&obj, &octowrap_io::ReadOptions::default()).unwrap();
+    assert_eq!(a.faces, b.faces);
+    assert_eq!(a.vertex_count(), b.vertex_count());
+    // Quantized on request: within half a step.
+    let q = dir.path().join("q.mrq");
+    assert!(octowrap(&["convert", ply.to_str().unwrap(), q.to_str().unwrap(), "--bits", "10"]).status.success());
+    let info = octowrap(&["info", "--json", q.to_str().unwrap()]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["grid"]["bits"], 10);
+}
+
+#[test]
+fn broken_files_get_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("x.ply");
+    for (file, words) in [
+        ("invalid/level1_checksum.mrq", "checksum mismatch in level 1"),
+        ("invalid/truncated_level1.mrq", "truncated at byte"),
+        ("invalid/bad_magic.mrq", "not an MRQ file"),
+    ] {
+        let f = fixture(file);
+        let out = octowrap(&["extract", f.to_str().unwrap(), "-o", out_path.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(2), "{file}");
+        assert!(text(&out.stderr).contains(words), "{file}: {}", text(&out.stderr));
+        assert!(!out_path.exists());
+    }
+    // Level 0 of a file truncated inside level 1 still extracts: only the prefix is read.
+    let f = fixture("invalid/truncated_level1.mrq");
+    let out = octowrap(&["extract", f.to_str().unwrap(), "--level", "0", "-o", out_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
