@@ -208,7 +208,7 @@ pub fn decode_level(
             for i in sub..nf {
                 let gap = st[s::CREATED_KEYS].varint_max(max_key, "slot key gap")?;
                 key = if i == sub { gap } else { key + 1 + gap };
-                let slot = lattice::slot_from_key(key, k)
+                let slot = lattice::slot_from_morton_key(key, k)
                     .ok_or_else(|| st[s::CREATED_KEYS].invalid(format!("slot key {key} outside level {k}")))?;
                 slots.push(slot);
                 out.parents.push(NO_PARENT);

@@ -533,7 +533,7 @@ fn plan_lattice(k: u32, input: &InputLevel<'_>, pp: &Parent<'_>) -> Option<Latti
             return None;
         }
         let (v, d) = slots[f];
-        keys[f] = lattice::slot_key(v, d, k);
+        keys[f] = lattice::morton_slot_key(v, d);
         if input.parents[f] == NO_PARENT {
             created.push(keys[f]);
             continue;

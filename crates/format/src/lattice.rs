@@ -57,6 +57,31 @@ pub fn slot_from_key(key: u64, depth: u32) -> Option<([u32; 3], u8)> {
     Some(([(v % n) as u32, ((v / n) % n) as u32, (v / (n * n)) as u32], side))
 }
 
+/// Morton slot key (spec §5.3): `morton(v) * 6 + side`, where `morton` interleaves the voxel's
+/// bits as `... z1 y1 x1 z0 y0 x0`. Orders created faces along a space-filling curve.
+pub fn morton_slot_key(voxel: [u32; 3], side: u8) -> u64 {
+    let mut m = 0u64;
+    for bit in 0..21 {
+        for (a, &c) in voxel.iter().enumerate() {
+            m |= u64::from((c >> bit) & 1) << (3 * bit + a);
+        }
+    }
+    m * 6 + u64::from(side)
+}
+
+/// Inverse of [`morton_slot_key`]; `None` when the slot lies outside depth `k`.
+pub fn slot_from_morton_key(key: u64, depth: u32) -> Option<([u32; 3], u8)> {
+    let side = (key % 6) as u8;
+    let m = key / 6;
+    let mut v = [0u32; 3];
+    for bit in 0..21 {
+        for (a, c) in v.iter_mut().enumerate() {
+            *c |= (((m >> (3 * bit + a)) & 1) as u32) << bit;
+        }
+    }
+    (morton_slot_key(v, side) == key && slot_in_range(v, side, depth)).then_some((v, side))
+}
+
 /// Corner key at depth `k`: `(z * (N + 1) + y) * (N + 1) + x`, `N = 2^k`.
 pub fn corner_key(c: [u32; 3], depth: u32) -> u64 {
     let m = (1u64 << depth) + 1;
@@ -131,6 +156,12 @@ mod tests {
             assert_eq!(nrm, want, "side {side}");
         }
         assert_eq!(corner_from_key(corner_key([4, 0, 3], 2), 2), Some([4, 0, 3]));
+        assert_eq!(morton_slot_key([1, 0, 0], 0), 6);
+        assert_eq!(morton_slot_key([0, 1, 1], 5), 6 * 6 + 5);
+        for (v, d) in [([3u32, 1, 2], 4u8), ([0, 0, 0], 0), ([7, 7, 7], 5)] {
+            assert_eq!(slot_from_morton_key(morton_slot_key(v, d), 3), Some((v, d)));
+        }
+        assert_eq!(slot_from_morton_key(morton_slot_key([8, 0, 0], 0), 3), None);
         assert_eq!(corner_from_key(125, 2), None);
     }
 
