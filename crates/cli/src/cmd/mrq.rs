@@ -67,6 +67,13 @@ impl MrqWriteArgs {
 
 /// Writes `h` to `path` as MRQ.
 pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions) -> anyhow::Result<()> {
+    let dropped: Vec<&str> = h.levels.iter().flat_map(|l| l.mesh.vertices.attribute_names()).collect();
+    if !dropped.is_empty() {
+        let mut names = dropped;
+        names.sort_unstable();
+        names.dedup();
+        eprintln!("note: MRQ stores positions and connectivity only: dropping {}", names.join(", "));
+    }
     if path == Path::new("-") {
         let mut out = std::io::stdout().lock();
         octowrap_format::encode_to(&mut out, h, opts).with_context(|| "writing MRQ to standard output")?;
