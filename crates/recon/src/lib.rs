@@ -552,7 +552,8 @@ struct LevelState {
 }
 
 impl LevelState {
-    fn to_level(&self, tree: &Octree) -> Level {
+    /// The output level; moves the origins out (the next level does not need them).
+    fn to_level(&mut self, tree: &Octree) -> Level {
         let world: Vec<DVec3> = self.positions.iter().map(|&p| tree.frame.to_world(p)).collect();
         let mesh = Mesh { vertices: PointCloud::from_positions(world), faces: FaceList::from_quads(&self.quads) };
         let face_slots = self
@@ -565,7 +566,7 @@ impl LevelState {
             .collect();
         Level {
             mesh,
-            origins: self.origins.clone(),
+            origins: std::mem::take(&mut self.origins),
             lattice: Some(LevelLattice { face_slots, vertex_corners: self.corners.clone() }),
         }
     }

@@ -15,26 +15,32 @@
 //! Vertices of subdivided levels ([`crate::sparse`]) have no fan voxels of their own; they use the
 //! points within one edge length, then two, of their position.
 
+use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
 use crate::lattice::offset;
 use crate::octree::{BLOCK, Cells, Octree};
 
-/// A fitted tangent plane, in local coordinates.
+/// A fitted tangent plane, in local coordinates, kept compact (`f32`: 2^-24 of the root cube,
+/// far below any voxel) for the relaxation; the mapping itself projects in `f64`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct TangentPlane {
-    /// Centroid of the fitted points.
-    pub point: DVec3,
-    /// Unit normal.
-    pub normal: DVec3,
+    point: Vec3,
+    normal: Vec3,
 }
 
 impl TangentPlane {
+    /// A plane through `point` with unit `normal`.
+    pub(crate) fn new(point: DVec3, normal: DVec3) -> Self {
+        Self { point: point.as_vec3(), normal: normal.as_vec3() }
+    }
+
     /// Orthogonal projection onto the plane (equation (1)).
     #[inline]
     pub(crate) fn project(&self, v: DVec3) -> DVec3 {
-        v - self.normal * (v - self.point).dot(self.normal)
+        let n = self.normal.as_dvec3();
+        v - n * (v - self.point.as_dvec3()).dot(n)
     }
 }
 
@@ -59,9 +65,12 @@ fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &
     }
 }
 
-fn fit(m: &Moments, x: DVec3) -> Option<TangentPlane> {
-    let p = crate::fit::plane(m)?;
-    Some(TangentPlane { point: p.point + x, normal: p.normal })
+/// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
+fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
+    match crate::fit::plane(m) {
+        Some(p) => (x - p.normal * (-p.point).dot(p.normal), Some(TangentPlane::new(p.point + x, p.normal))),
+        None => (x, None),
+    }
 }
 
 /// Maps the vertices of a wrapped level. `face_cells[f]` is the voxel (index into `cells`) of
@@ -135,14 +144,11 @@ pub(crate) fn map_wrapped(
                     all.merge(&cells.moments[c]);
                 }
                 if let Some(p) = crate::fit::plane(&all) {
-                    let plane = TangentPlane { point: p.point, normal: p.normal };
-                    return (plane.project(x), Some(plane));
+                    let projected = x - p.normal * (x - p.point).dot(p.normal);
+                    return (projected, Some(TangentPlane::new(p.point, p.normal)));
                 }
             }
-            match fit(&m, x) {
-                Some(p) => (p.project(x), Some(p)),
-                None => (x, None),
-            }
+            fit(&m, x)
         })
         .unzip();
     Mapped { positions, planes }
@@ -174,22 +180,9 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
 /// radii are).
 pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
     let l = crate::octree::voxel_size(level);
-    // Visit the vertices along the Morton curve, so consecutive queries touch nearby voxels and
-    // points (the output order is unchanged).
-    let cells_per_axis = f64::from(1u32 << level) - 1.0;
-    let mut order: Vec<(u64, u32)> = start
+    let (positions, planes) = start
         .par_iter()
-        .enumerate()
-        .map(|(i, x)| {
-            let c = (*x / l).floor().clamp(DVec3::ZERO, DVec3::splat(cells_per_axis));
-            (morton::encode(c.x as u32, c.y as u32, c.z as u32), i as u32)
-        })
-        .collect();
-    order.par_sort_unstable();
-    let mapped: Vec<(DVec3, Option<TangentPlane>)> = order
-        .par_iter()
-        .map(|&(_, i)| {
-            let x = start[i as usize];
+        .map(|&x| {
             let mut m = Moments::default();
             for up in 1..=2u32 {
                 let Some(q) = level.checked_sub(up) else { break };
@@ -199,17 +192,8 @@ pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
                     break;
                 }
             }
-            match fit(&m, x) {
-                Some(p) => (p.project(x), Some(p)),
-                None => (x, None),
-            }
+            fit(&m, x)
         })
-        .collect();
-    let mut positions = vec![DVec3::ZERO; start.len()];
-    let mut planes = vec![None; start.len()];
-    for (&(_, i), (p, plane)) in order.iter().zip(mapped) {
-        positions[i as usize] = p;
-        planes[i as usize] = plane;
-    }
+        .unzip();
     Mapped { positions, planes }
 }

@@ -97,12 +97,15 @@ impl Mask {
 #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as "no"
 fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) -> bool {
     const BINS: usize = 64;
-    let k = points.len();
+    // Coarse voxels hold up to all the points: a fixed stride keeps about 4096 of them.
+    let stride = (points.len() / 4096).max(1);
+    let sample = || points.iter().step_by(stride);
+    let k = sample().len();
     if k < 6 {
         return false;
     }
     let (mut lo, mut hi, mut sum2) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
-    for p in points {
+    for p in sample() {
         let d = (p.as_dvec3() - m).dot(n);
         lo = lo.min(d);
         hi = hi.max(d);
@@ -118,7 +121,7 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
     // The gap, on a histogram of 64 bins (no sort): an empty run wider than the threshold.
     let mut hist = [0u32; BINS];
     let width = (hi - lo) / BINS as f64;
-    for p in points {
+    for p in sample() {
         let d = (p.as_dvec3() - m).dot(n);
         if d.abs() < 0.5 * r {
             near += 1;

@@ -9,7 +9,8 @@
 //! the bunny the median falls about 4x per level, 13 at level 5 and 3 at level 6, where the
 //! wrapped mesh starts to fragment). [`crate::MaxLevel::Auto`] stops at the last trusted level.
 //! Deeper levels asked for are made by splitting every quad into four (shared edge midpoints and a
-//! face point; child `i` covers the parent's quadrant `i` and starts at the parent's corner `i`), so
+//! face point; child `i` covers the parent's quadrant `i` and starts at the parent's corner `i`;
+//! vertices numbered along the Morton curve of their lattice corners), so
 //! faces grow exactly 4x and the topology stays manifold; every vertex is then mapped again
 //! ([`crate::mapping::map_free`]). [`crate::SparseMode::Wrap`] wraps such levels anyway.
 
@@ -86,7 +87,17 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
             out.origins.push(FaceOrigin::Subface { parent: f as u32, quadrant: Quadrant(k as u8) });
         }
     }
-    out.corners = out_corners;
-    out.positions = out_pos;
+    // Number the vertices along the Morton curve of their lattice corners, so that the mapping,
+    // which visits them in order, queries nearby voxels one after the other.
+    let mut order: Vec<(u64, u32)> =
+        out_corners.par_iter().enumerate().map(|(i, c)| (morton::encode(c[0], c[1], c[2]), i as u32)).collect();
+    order.par_sort_unstable();
+    let mut rank = vec![0u32; order.len()];
+    for (new, &(_, old)) in order.iter().enumerate() {
+        rank[old as usize] = new as u32;
+    }
+    out.corners = order.iter().map(|&(_, old)| out_corners[old as usize]).collect();
+    out.positions = order.iter().map(|&(_, old)| out_pos[old as usize]).collect();
+    out.quads.par_iter_mut().for_each(|q| *q = q.map(|v| rank[v as usize]));
     out
 }
