@@ -425,7 +425,7 @@ pub fn reconstruct_with(
         dropped: 0,
         timings: StageTimings { partitioning: part_times[0], ..StageTimings::default() },
     });
-    levels.push(prev.to_level(&tree));
+    levels.push(prev.take_level(&tree));
 
     for j in 1..=finest {
         let here = tree.levels.get(j as usize);
@@ -534,7 +534,7 @@ pub fn reconstruct_with(
         rep.timings.relaxation = t.elapsed();
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();
-        levels.push(next.to_level(&tree));
+        levels.push(next.take_level(&tree));
         reports.push(rep);
         prev = next;
     }
@@ -553,7 +553,7 @@ struct LevelState {
 
 impl LevelState {
     /// The output level; moves the origins out (the next level does not need them).
-    fn to_level(&mut self, tree: &Octree) -> Level {
+    fn take_level(&mut self, tree: &Octree) -> Level {
         let world: Vec<DVec3> = self.positions.iter().map(|&p| tree.frame.to_world(p)).collect();
         let mesh = Mesh { vertices: PointCloud::from_positions(world), faces: FaceList::from_quads(&self.quads) };
         let face_slots = self
