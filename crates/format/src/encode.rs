@@ -114,7 +114,7 @@ pub fn encode_level(
     };
     let pp = parent.as_parent();
     let lattice_plan =
-        if has_lattice && (exact || tied) && parent.slots.is_some() { plan_lattice(k, input, &pp) } else { None };
+        if has_lattice && (exact || tied) && parent.slots.is_some() { plan_lattice(input, &pp) } else { None };
     let mode = if lattice_plan.is_some() { Mode::Lattice } else { Mode::Generic };
 
     // Face order (§5.7): subfaces by (parent, quadrant), then created faces.
@@ -519,8 +519,8 @@ struct LatticePlan {
     keys: Vec<u64>,
 }
 
-/// Checks that level `k` can use lattice mode and works out depths and created-face keys.
-fn plan_lattice(k: u32, input: &InputLevel<'_>, pp: &Parent<'_>) -> Option<LatticePlan> {
+/// Checks that a level can use lattice mode and works out depths and created-face keys.
+fn plan_lattice(input: &InputLevel<'_>, pp: &Parent<'_>) -> Option<LatticePlan> {
     let quads = pp.canonical_quads().ok()?;
     let slots = input.slots?;
     let pslots = pp.slots?;

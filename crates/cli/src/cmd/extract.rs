@@ -16,7 +16,7 @@ use super::mrq;
 /// (see `octowrap info FILE.mrq` for the step).
 ///
 /// Examples:
-///   octowrap extract bunny.mrq --level 3 -o bunny_l3.ply
+///   octowrap extract bunny.mrq --level 3 -o bunny-l3.ply
 ///   octowrap extract bunny.mrq -o finest.obj
 ///   octowrap extract dragon.mrq --level 5 --to off -o - | less
 #[derive(Debug, clap::Args)]

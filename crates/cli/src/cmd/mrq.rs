@@ -123,7 +123,7 @@ impl Report {
     /// Reads the preamble of `path` only.
     pub fn new(path: &Path) -> anyhow::Result<Self> {
         let f = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let bytes = f.metadata().map(|m| m.len()).unwrap_or(0);
+        let bytes = f.metadata().map_or(0, |m| m.len());
         let info = octowrap_format::read_info(std::io::BufReader::new(f), &octowrap_format::Limits::default())
             .with_context(|| format!("reading {}", path.display()))?;
         Ok(Self { file: path.display().to_string(), format: "mrq", bytes, info })
@@ -146,8 +146,8 @@ impl Report {
                 g.origin[2]
             ),
         }
-        if let Some((lo, hi)) = i.cube {
-            println!("  cube        {:.6} {:.6} {:.6} .. {:.6} {:.6} {:.6}", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+        if let Some(([x0, y0, z0], [x1, y1, z1])) = i.cube {
+            println!("  cube        {x0:.6} {y0:.6} {z0:.6} .. {x1:.6} {y1:.6} {z1:.6}");
         }
         let m = &i.metadata;
         for (k, v) in [("units", &m.units), ("source", &m.source), ("generator", &m.generator)] {
