@@ -24,7 +24,7 @@ use super::mrq;
 ///   octowrap convert depth.exr --camera 525,525,319.5,239.5 depth.ply
 ///   octowrap convert bunny.ply bunny.mrq                 (lossless one-level MRQ)
 ///   octowrap convert bunny.ply bunny.mrq --bits 14       (vertices within half a 2^-14 step)
-///   octowrap convert bunny.mrq --level 4 bunny_l4.obj
+///   octowrap convert bunny.mrq --level 4 bunny-l4.obj
 ///
 /// MRQ (octowrap's multiresolution format, spec/FORMAT.md): a mesh written to OUTPUT.mrq becomes a
 /// one-level file, stored exactly unless --bits or --step ask for quantization; an .mrq input
