@@ -80,7 +80,7 @@ impl Aabb {
             return None;
         }
         let mut edge = self.size().max_element() * (1.0 + 2.0 * padding);
-        if !(edge > 0.0) || !edge.is_finite() {
+        if edge.is_nan() || edge <= 0.0 || edge.is_infinite() {
             edge = 1.0;
         }
         let half = DVec3::splat(edge * 0.5);
@@ -90,6 +90,7 @@ impl Aabb {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
 

@@ -18,6 +18,7 @@ pub struct SymEigen3 {
 /// Decomposes the symmetric matrix `m` (only its upper triangle is read).
 ///
 /// Non-finite input gives non-finite output; callers check [`f64::is_finite`] on the values.
+#[allow(clippy::needless_range_loop)] // index form mirrors the rotation formulas
 pub fn sym_eigen3(m: DMat3) -> SymEigen3 {
     // a[i][j] = row i, column j.
     let mut a = [
@@ -74,6 +75,7 @@ pub fn sym_eigen3(m: DMat3) -> SymEigen3 {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
     use proptest::prelude::*;

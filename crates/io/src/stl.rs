@@ -216,26 +216,6 @@ fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
     Ok(soup.finish())
 }
 
-/// The triangles STL stores for `mesh`: quads split along the shorter diagonal, larger polygons
-/// fanned from their first corner.
-fn triangles(mesh: &Mesh) -> Vec<[u32; 3]> {
-    let p = &mesh.vertices.positions;
-    let pos = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
-    let mut out = Vec::with_capacity(mesh.faces.corner_count());
-    for f in mesh.faces.iter() {
-        if let &[a, b, c, d] = f {
-            if pos(a).distance_squared(pos(c)) <= pos(b).distance_squared(pos(d)) {
-                out.extend([[a, b, c], [a, c, d]]);
-            } else {
-                out.extend([[a, b, d], [b, c, d]]);
-            }
-        } else if let Some((&first, rest)) = f.split_first() {
-            out.extend(rest.windows(2).map(|w| [first, w[0], w[1]]));
-        }
-    }
-    out
-}
-
 /// Writes `mesh` as STL, binary or (with `opts.ascii`) ascii.
 pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
     if mesh.faces.is_empty() {
@@ -244,7 +224,7 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Resu
             "STL holds triangles only, and this mesh has no faces (write a point cloud as PLY or XYZ)",
         ));
     }
-    let tris = triangles(mesh);
+    let tris = mesh.triangles();
     let p = &mesh.vertices.positions;
     let pos = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
     let normal = |t: &[u32; 3]| {
@@ -387,7 +367,7 @@ mod tests {
             DVec3::new(3.0, 3.0, 0.0),
         ]);
         m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
-        assert_eq!(triangles(&m), vec![[0, 1, 3], [1, 2, 3]]);
+        assert_eq!(m.triangles(), vec![[0, 1, 3], [1, 2, 3]]);
         let mut out = Vec::new();
         write(&mut out, &m, &WriteOptions::default()).unwrap();
         assert_eq!(out.len(), 84 + 100);
@@ -402,7 +382,7 @@ mod tests {
 
     /// The triangles of `m` as position triples, for comparing meshes up to vertex numbering.
     fn soup(m: &Mesh) -> Vec<[DVec3; 3]> {
-        triangles(m).iter().map(|t| t.map(|i| m.vertices.positions[i as usize])).collect()
+        m.triangles().iter().map(|t| t.map(|i| m.vertices.positions[i as usize])).collect()
     }
 
     proptest! {

@@ -47,15 +47,15 @@ impl PointCloud {
     /// Appends all points of `other`. An attribute survives only if both clouds have it
     /// (or `self` is empty, in which case `other`'s attributes are taken as they are).
     pub fn append(&mut self, other: PointCloud) {
-        if self.positions.is_empty() {
-            *self = other;
-            return;
-        }
         fn join<T>(a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
             match (a.as_mut(), b) {
                 (Some(x), Some(y)) => x.extend(y),
                 _ => *a = None,
             }
+        }
+        if self.positions.is_empty() {
+            *self = other;
+            return;
         }
         join(&mut self.normals, other.normals);
         join(&mut self.colors, other.colors);

@@ -155,20 +155,6 @@ impl FaceList {
         }
         Ok(())
     }
-
-    /// Fan triangulation of every face (corner 0 with each following edge), for formats that
-    /// store triangles only. Quads are split along their shorter diagonal by callers that have
-    /// positions; this one is purely topological.
-    pub fn fan_triangulated(&self) -> Self {
-        let tris = self.iter().map(|f| f.len().saturating_sub(2)).sum::<usize>();
-        let mut out = Self::with_capacity(tris, tris * 3);
-        for f in self.iter() {
-            for k in 1..f.len().saturating_sub(1) {
-                out.push(&[f[0], f[k], f[k + 1]]);
-            }
-        }
-        out
-    }
 }
 
 #[cfg(test)]
@@ -189,16 +175,5 @@ mod tests {
         assert_eq!(f.check(5), Err(IndexError::TooFewVertices { face: 2, len: 2 }));
         assert!(!f.all_quads());
         assert!(FaceList::from_quads(&[[0, 1, 2, 3]]).all_quads());
-    }
-
-    #[test]
-    fn fan_triangulation_counts() {
-        let mut f = FaceList::default();
-        f.push(&[0, 1, 2, 3, 4]);
-        f.push(&[5, 6, 7]);
-        let t = f.fan_triangulated();
-        assert!(t.all_triangles());
-        assert_eq!(t.len(), 4);
-        assert_eq!(t.face(2), &[0, 3, 4]);
     }
 }

@@ -25,6 +25,8 @@
 //! assert_eq!(mesh.faces.face(0), &[0, 1, 2, 3]);
 //! assert_eq!(mesh.faces.size_histogram(), vec![(3, 1), (4, 1)]);
 //! assert!(mesh.check_indices().is_ok());
+//! // The quad splits along its shorter diagonal, the triangle stays.
+//! assert_eq!(mesh.triangles().len(), 3);
 //! ```
 
 mod cloud;
@@ -55,6 +57,28 @@ impl Mesh {
     /// Number of vertices.
     pub fn vertex_count(&self) -> usize {
         self.vertices.len()
+    }
+
+    /// The faces as triangles, deterministically: quads split along their shorter diagonal (the
+    /// `0-2` diagonal on a tie), other polygons fanned from their first corner, triangles as they
+    /// are; faces of fewer than 3 vertices give none. Out-of-range indices are passed through
+    /// (positions read as the origin), so check [`Mesh::check_indices`] first.
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        let p = &self.vertices.positions;
+        let pos = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
+        let mut out = Vec::with_capacity(self.faces.corner_count());
+        for f in self.faces.iter() {
+            if let &[a, b, c, d] = f {
+                if pos(a).distance_squared(pos(c)) <= pos(b).distance_squared(pos(d)) {
+                    out.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    out.extend([[a, b, d], [b, c, d]]);
+                }
+            } else if let Some((&first, rest)) = f.split_first() {
+                out.extend(rest.windows(2).map(|w| [first, w[0], w[1]]));
+            }
+        }
+        out
     }
 
     /// Checks that every face index is below the vertex count and every face has 3 or more vertices.

@@ -5,7 +5,7 @@
 //! edges; components by union-find over vertices joined by faces. Everything is deterministic:
 //! no hash-map order reaches the report.
 
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 
 use octowrap_mesh::Mesh;
 
@@ -48,7 +48,9 @@ impl Collector {
     }
 }
 
-/// Runs every check on `mesh` (already welded if asked).
+/// Runs every check on `mesh` (already welded if asked). One pass per check, in report order; the
+/// passes share the face-usability, edge and union-find arrays, hence one long function.
+#[allow(clippy::too_many_lines)]
 pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
     let n = mesh.vertex_count();
     let faces = &mesh.faces;
@@ -365,7 +367,8 @@ fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
         area += a.cross(b);
         size2 = size2.max(a.length_squared()).max(b.length_squared());
     }
-    !(area.length() > size2 * 1e-12)
+    // Written so that NaN areas count as zero.
+    area.length().partial_cmp(&(size2 * 1e-12)) != Some(std::cmp::Ordering::Greater)
 }
 
 fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
@@ -386,9 +389,9 @@ fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
 
 fn duplicate_faces(faces: &octowrap_mesh::FaceList, usable: &[bool]) -> Vec<u32> {
     // Triangles and quads (nearly every face) key on a fixed array; larger faces on a vector.
-    let mut small: FxHashMap<[u32; 4], ()> = FxHashMap::default();
+    let mut small: FxHashSet<[u32; 4]> = FxHashSet::default();
     small.reserve(faces.len());
-    let mut large: FxHashMap<Vec<u32>, ()> = FxHashMap::default();
+    let mut large: FxHashSet<Vec<u32>> = FxHashSet::default();
     let mut dups = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         if !usable[f] {
@@ -398,11 +401,11 @@ fn duplicate_faces(faces: &octowrap_mesh::FaceList, usable: &[bool]) -> Vec<u32>
             let mut key = [u32::MAX; 4];
             key[..face.len()].copy_from_slice(face);
             key.sort_unstable();
-            small.insert(key, ()).is_some()
+            !small.insert(key)
         } else {
             let mut key = face.to_vec();
             key.sort_unstable();
-            large.insert(key, ()).is_some()
+            !large.insert(key)
         };
         if repeated {
             dups.push(f as u32);
@@ -467,6 +470,6 @@ fn components(
             c
         })
         .collect();
-    out.sort_by(|a, b| b.faces.cmp(&a.faces));
+    out.sort_by_key(|c| std::cmp::Reverse(c.faces));
     out
 }

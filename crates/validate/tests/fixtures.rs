@@ -1,6 +1,8 @@
 //! The named pathology fixtures in `fixtures/meshes/` and the real defect meshes in
 //! `../shared/data/mesh-defects/` give exactly the expected counts.
 
+#![allow(clippy::print_stderr)]
+
 use std::path::{Path, PathBuf};
 
 use octowrap_io::{ReadOptions, read_path};

@@ -31,6 +31,7 @@ use super::mrq;
 /// converts to a mesh as its finest level, or level --level K (see also `octowrap extract`).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
+#[allow(clippy::doc_markdown)] // the examples are shell lines shown by --help, not Rust names
 pub struct Args {
     /// Input file (`-` for standard input).
     pub input: PathBuf,

@@ -87,8 +87,9 @@ impl Report {
             println!("  attributes  {}", self.attributes.join(", "));
         }
         if let (Some(lo), Some(hi)) = (self.bbox_min, self.bbox_max) {
-            println!("  bbox min    {:.6} {:.6} {:.6}", lo[0], lo[1], lo[2]);
-            println!("  bbox max    {:.6} {:.6} {:.6}", hi[0], hi[1], hi[2]);
+            let ([x0, y0, z0], [x1, y1, z1]) = (lo, hi);
+            println!("  bbox min    {x0:.6} {y0:.6} {z0:.6}");
+            println!("  bbox max    {x1:.6} {y1:.6} {z1:.6}");
             println!("  diagonal    {:.6}", self.diagonal);
         }
         if self.non_finite_points > 0 {

@@ -74,6 +74,7 @@ fn parse_camera(s: &str) -> anyhow::Result<PinholeCamera> {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
 
