@@ -18,8 +18,7 @@ pub fn fixtures() -> PathBuf {
 /// if present.
 pub fn shared_data() -> Option<PathBuf> {
     let dir = std::env::var_os("OCTOWRAP_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo_root().join("..").join("shared").join("data"));
+        .map_or_else(|| repo_root().join("..").join("shared").join("data"), PathBuf::from);
     dir.is_dir().then_some(dir)
 }
 
