@@ -153,6 +153,11 @@ pub struct ReconOptions {
     pub min_median_points: f64,
     /// Levels beyond the density limit. Default [`SparseMode::Subdivide`].
     pub sparse: SparseMode,
+    /// Map the vertices of wrapped levels onto a weighted height-field quadric of the points
+    /// within one voxel edge (Gaussian weights of half an edge, in the weighted plane's frame;
+    /// the paper's plane under 10 points) instead of the paper's plane (§3.6). Default true:
+    /// see `tools/bench/RESULTS.md` for the measured gain.
+    pub quadric_mapping: bool,
 }
 
 impl Default for ReconOptions {
@@ -164,6 +169,7 @@ impl Default for ReconOptions {
             padding: 0.01,
             min_median_points: 8.0,
             sparse: SparseMode::Subdivide,
+            quadric_mapping: true,
         }
     }
 }
@@ -520,7 +526,7 @@ pub fn reconstruct_with(
                 .iter()
                 .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
                 .collect();
-            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &next.positions)
+            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &next.positions, opts.quadric_mapping)
         } else {
             mapping::map_free(&tree, j, &next.positions)
         };

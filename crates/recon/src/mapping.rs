@@ -81,6 +81,7 @@ pub(crate) fn map_wrapped(
     quads: &[[u32; 4]],
     face_cells: &[u32],
     start: &[DVec3],
+    quadric: bool,
 ) -> Mapped {
     // Vertex -> voxels of its fan, as a sorted list of pairs.
     let mut pairs: Vec<(u32, u32)> =
@@ -102,6 +103,24 @@ pub(crate) fn map_wrapped(
             let x = start[v];
             let w: Vec<usize> =
                 pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
+            if quadric {
+                // The points of W within one edge, for the weighted quadric.
+                let mut near: Vec<DVec3> = Vec::new();
+                // Big voxels hold many points: a fixed stride keeps about 256, plenty for six unknowns.
+                let total: usize = w.iter().map(|&c| cells.range(c).len()).sum();
+                let stride = (total / 256).max(1);
+                for &c in &w {
+                    for p in tree.points[cells.range(c)].iter().step_by(stride) {
+                        let d = p.as_dvec3() - x;
+                        if d.length_squared() < l * l {
+                            near.push(d);
+                        }
+                    }
+                }
+                if let Some((offset, normal)) = quadric_fit(&near, 0.5 * l) {
+                    return (x + offset, Some(TangentPlane::new(x + offset, normal)));
+                }
+            }
             let mut m = Moments::default();
             // The points within l/2 of a lattice corner lie in the children touching it.
             let corner = (x / l).round();
@@ -152,6 +171,87 @@ pub(crate) fn map_wrapped(
         })
         .unzip();
     Mapped { positions, planes }
+}
+
+/// Fewest points for the quadric; below, the plane of the paper.
+const QUADRIC_MIN: usize = 10;
+
+/// The weighted height-field quadric through `points` (relative to the vertex): Gaussian weights
+/// of width `h`, a weighted plane, then `z = c0 + c1 a + c2 b + c3 a^2 + c4 ab + c5 b^2` over it by
+/// weighted least squares. Returns the vertex's move (its foot on the quadric along the plane
+/// normal) and the quadric's normal there; `None` with too few points or a move beyond `4 h`.
+fn quadric_fit(points: &[DVec3], h: f64) -> Option<(DVec3, DVec3)> {
+    if points.len() < QUADRIC_MIN {
+        return None;
+    }
+    let inv = 1.0 / (h * h);
+    let weight = |p: &DVec3| (-p.length_squared() * inv).exp();
+    let mut m = Moments::default();
+    for p in points {
+        m.add_weighted(*p, weight(p));
+    }
+    let plane = crate::fit::plane(&m)?;
+    let (c, n) = (plane.point, plane.normal);
+    let u = n.any_orthonormal_vector();
+    let v = n.cross(u);
+    let mut ata = [[0.0f64; 6]; 6];
+    let mut atz = [0.0f64; 6];
+    for p in points {
+        let w = weight(p);
+        let d = *p - c;
+        let (a, b, z) = (d.dot(u) / h, d.dot(v) / h, d.dot(n));
+        let phi = [1.0, a, b, a * a, a * b, b * b];
+        for i in 0..6 {
+            atz[i] += w * phi[i] * z;
+            for j in 0..6 {
+                ata[i][j] += w * phi[i] * phi[j];
+            }
+        }
+    }
+    let trace: f64 = (0..6).map(|i| ata[i][i]).sum();
+    for (i, row) in ata.iter_mut().enumerate() {
+        row[i] += 1e-9 * trace;
+    }
+    let coef = solve6(ata, atz)?;
+    let (a0, b0) = ((-c).dot(u) / h, (-c).dot(v) / h);
+    let z0 = coef[0] + coef[1] * a0 + coef[2] * b0 + coef[3] * a0 * a0 + coef[4] * a0 * b0 + coef[5] * b0 * b0;
+    let offset = c + u * (a0 * h) + v * (b0 * h) + n * z0;
+    if !offset.is_finite() || offset.length() > 4.0 * h {
+        return None;
+    }
+    let (za, zb) =
+        ((coef[1] + 2.0 * coef[3] * a0 + coef[4] * b0) / h, (coef[2] + coef[4] * a0 + 2.0 * coef[5] * b0) / h);
+    let normal = (n - u * za - v * zb).normalize_or_zero();
+    (normal != DVec3::ZERO).then_some((offset, normal))
+}
+
+/// Solves the 6x6 system by Gaussian elimination with partial pivoting.
+#[allow(clippy::needless_range_loop)] // row operations on a small dense matrix
+fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
+    for col in 0..6 {
+        let pivot = (col..6).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..6 {
+            let f = a[row][col] / a[col][col];
+            for k in col..6 {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 6];
+    for row in (0..6).rev() {
+        let mut s = b[row];
+        for k in row + 1..6 {
+            s -= a[row][k] * x[k];
+        }
+        x[row] = s / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Sums the points within `radius` of `x` from the 2x2x2 voxels of `cells` around the lattice

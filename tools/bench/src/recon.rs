@@ -250,6 +250,25 @@ fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
     }
 }
 
+/// Points-to-mesh RMS per level with the paper's plane and with the weighted quadric.
+fn mapping_effect(name: &str, points: &[DVec3], max_level: u32) {
+    let diag = Aabb::from_points(points).diagonal();
+    println!();
+    println!("### Vertex mapping on {name}: points→mesh RMS / diagonal per level (default relaxation)");
+    println!();
+    let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
+    println!("| mapping | {} |", header.join(" | "));
+    println!("|---|{}", "---|".repeat(max_level as usize));
+    for quadric in [false, true] {
+        let mut o = opts(max_level, None);
+        o.quadric_mapping = quadric;
+        let r = run(points, &o);
+        let cells: Vec<String> =
+            r.hierarchy.levels.iter().skip(1).map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag)).collect();
+        println!("| {} | {} |", if quadric { "quadric" } else { "plane (paper)" }, cells.join(" | "));
+    }
+}
+
 /// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
 fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let p = &mesh.vertices.positions;
@@ -357,6 +376,12 @@ pub fn report() {
     }
     if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         accuracy("Dragon (dragon_vrip)", p, 7);
+    }
+    if let Some(p) = bunny.as_ref().filter(|_| !quick) {
+        mapping_effect("the bunny", p, 7);
+    }
+    if let Some(p) = dragon.as_ref().filter(|_| !quick) {
+        mapping_effect("the dragon", p, 7);
     }
     if let Some(p) = bunny.as_ref().filter(|_| !quick) {
         relaxation_effect("the bunny", p, 7);
