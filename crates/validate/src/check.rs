@@ -5,7 +5,7 @@
 //! edges; components by union-find over vertices joined by faces. Everything is deterministic:
 //! no hash-map order reaches the report.
 
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashMap;
 
 use octowrap_mesh::Mesh;
 
@@ -17,6 +17,7 @@ use crate::{Options, dsu::Dsu};
 #[derive(Clone, Copy)]
 struct Side {
     other: u32,
+    face: u32,
     forward: bool,
     /// Corner index (into the face list's index array) of the side's smaller vertex.
     corner_lo: u32,
@@ -142,15 +143,6 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         zero.len(),
         format!("{} faces have zero area", zero.len()),
     );
-    let dup_faces = duplicate_faces(faces, &usable);
-    counts.duplicate_faces = dup_faces.len();
-    out.add(
-        Code::DuplicateFace,
-        dup_faces.iter().map(|&f| Element::Face(f)),
-        dup_faces.len(),
-        format!("{} faces repeat the vertex set of an earlier face", dup_faces.len()),
-    );
-
     // Half-edges bucketed by their smaller vertex.
     let mut bucket_len = vec![0u32; n + 1];
     for (f, w) in offs.windows(2).enumerate() {
@@ -170,7 +162,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     }
     let starts = bucket_len;
     let mut fill = starts.clone();
-    let mut sides = vec![Side { other: 0, forward: false, corner_lo: 0, corner_hi: 0 }; starts[n] as usize];
+    let mut sides = vec![Side { other: 0, face: 0, forward: false, corner_lo: 0, corner_hi: 0 }; starts[n] as usize];
     for (f, w) in offs.windows(2).enumerate() {
         if !usable[f] {
             continue;
@@ -184,13 +176,16 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             }
             let (lo, hi, forward, clo, chi) = if a < b { (a, b, true, c, c2) } else { (b, a, false, c2, c) };
             let slot = &mut fill[lo as usize];
-            sides[*slot as usize] = Side { other: hi, forward, corner_lo: clo as u32, corner_hi: chi as u32 };
+            sides[*slot as usize] =
+                Side { other: hi, face: f as u32, forward, corner_lo: clo as u32, corner_hi: chi as u32 };
             *slot += 1;
         }
     }
 
-    // Walk edges: valence, orientation, fan unions.
+    // Walk edges: valence, orientation, fan unions, components, duplicate faces.
     let mut corners = Dsu::new(idx.len());
+    let mut comp = Dsu::new(n);
+    let mut duplicate = vec![false; faces.len()];
     let mut boundary_vertices = Dsu::new(n);
     let mut is_boundary_vertex = vec![false; n];
     let (mut boundary, mut nm_edges, mut conflicts) = (Vec::new(), Vec::new(), Vec::new());
@@ -209,6 +204,10 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             }
             let group = &bucket[i..j];
             let e = Element::Edge(lo as u32, hi);
+            comp.union(lo, hi as usize);
+            if group.len() > 1 {
+                mark_duplicates(group, faces, &mut duplicate);
+            }
             edge_count += 1;
             edges_at[lo].edges += 1;
             match group.len() {
@@ -240,6 +239,14 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             i = j;
         }
     }
+    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| duplicate[f as usize]).collect();
+    counts.duplicate_faces = dup_faces.len();
+    out.add(
+        Code::DuplicateFace,
+        dup_faces.iter().map(|&f| Element::Face(f)),
+        dup_faces.len(),
+        format!("{} faces repeat an earlier face (the same vertex cycle, either way round)", dup_faces.len()),
+    );
     counts.boundary_edges = boundary.len();
     counts.non_manifold_edges = nm_edges.len();
     out.add(
@@ -289,15 +296,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         format!("{} boundary edges in {loops} loops (holes or borders)", boundary.len()),
     );
 
-    // Components: vertices joined through faces.
-    let mut comp = Dsu::new(n);
-    for (f, face) in faces.iter().enumerate() {
-        if usable[f] {
-            for w in face.windows(2) {
-                comp.union(w[0] as usize, w[1] as usize);
-            }
-        }
-    }
+    // Components: vertices joined through edges.
     let components = components(faces, &usable, &used, &mut comp, &edges_at, &fans);
 
     let used_count = used.iter().filter(|&&u| u).count();
@@ -387,31 +386,32 @@ fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
     dups
 }
 
-fn duplicate_faces(faces: &octowrap_mesh::FaceList, usable: &[bool]) -> Vec<u32> {
-    // Triangles and quads (nearly every face) key on a fixed array; larger faces on a vector.
-    let mut small: FxHashSet<[u32; 4]> = FxHashSet::default();
-    small.reserve(faces.len());
-    let mut large: FxHashSet<Vec<u32>> = FxHashSet::default();
-    let mut dups = Vec::new();
-    for (f, face) in faces.iter().enumerate() {
-        if !usable[f] {
+/// Marks the faces of an edge's sides that repeat an earlier face: the same vertex cycle, in
+/// either direction and from any starting corner. Two such faces share every edge, so each face is
+/// compared only at its first edge, with the earlier faces on that edge.
+fn mark_duplicates(group: &[Side], faces: &octowrap_mesh::FaceList, duplicate: &mut [bool]) {
+    let offs = faces.offsets();
+    for x in group {
+        let start = if x.forward { x.corner_lo } else { x.corner_hi };
+        if start != offs[x.face as usize] || duplicate[x.face as usize] {
             continue;
         }
-        let repeated = if face.len() <= 4 {
-            let mut key = [u32::MAX; 4];
-            key[..face.len()].copy_from_slice(face);
-            key.sort_unstable();
-            !small.insert(key)
-        } else {
-            let mut key = face.to_vec();
-            key.sort_unstable();
-            !large.insert(key)
-        };
-        if repeated {
-            dups.push(f as u32);
+        let fx = faces.face(x.face as usize);
+        if group.iter().any(|y| y.face < x.face && same_cycle(fx, faces.face(y.face as usize))) {
+            duplicate[x.face as usize] = true;
         }
     }
-    dups
+}
+
+/// Whether `a` and `b` are the same cycle of vertices, up to rotation and reversal.
+fn same_cycle(a: &[u32], b: &[u32]) -> bool {
+    let n = a.len();
+    if n != b.len() {
+        return false;
+    }
+    let Some(k) = b.iter().position(|&v| v == a[0]) else { return false };
+    let forward = (0..n).all(|i| a[i] == b[(k + i) % n]);
+    forward || (0..n).all(|i| a[i] == b[(k + n - i) % n])
 }
 
 fn components(

@@ -35,7 +35,8 @@
 //!
 //! Zero area is judged by the vector area (Newell's method) relative to the face's squared size
 //! (`|A| ≤ 1e-12 · r²`), so the test does not depend on units. Duplicate vertices have bit-equal
-//! positions (`-0.0 = 0.0`); duplicate faces have the same vertex set in any order or orientation.
+//! positions (`-0.0 = 0.0`); duplicate faces have the same cycle of vertices as an earlier face, from
+//! any corner and in either direction.
 //!
 //! ```
 //! use octowrap_mesh::{FaceList, Mesh};

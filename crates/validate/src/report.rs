@@ -32,7 +32,7 @@ pub enum Code {
     /// A face has zero area (collinear or coincident corners).
     #[serde(rename = "W-ZERO-AREA-FACE")]
     ZeroAreaFace,
-    /// A face has the same vertex set as an earlier face.
+    /// A face has the same vertex cycle as an earlier face (either direction).
     #[serde(rename = "W-DUPLICATE-FACE")]
     DuplicateFace,
     /// A vertex has exactly the position of an earlier vertex.
@@ -185,7 +185,7 @@ pub struct Counts {
     pub degenerate_faces: usize,
     /// Faces of zero area.
     pub zero_area_faces: usize,
-    /// Faces with the vertex set of an earlier face.
+    /// Faces with the vertex cycle of an earlier face.
     pub duplicate_faces: usize,
     /// Vertices at exactly the position of an earlier vertex.
     pub duplicate_vertices: usize,
