@@ -157,6 +157,9 @@ pub struct ReconOptions {
     pub min_median_points: f64,
     /// Levels beyond the density limit. Default [`SparseMode::Subdivide`].
     pub sparse: SparseMode,
+    /// Most faces any level may have; a deeper level that would exceed it is an error
+    /// ([`ReconError::TooManyFaces`]) rather than an allocation failure. Default 200 million.
+    pub max_faces: u64,
     /// Map the vertices of wrapped levels onto a weighted height-field quadric of the points
     /// within one voxel edge (Gaussian weights of half an edge, in the weighted plane's frame;
     /// the paper's plane under 10 points) instead of the paper's plane (§3.6). Default true:
@@ -174,6 +177,7 @@ impl Default for ReconOptions {
             min_median_points: 8.0,
             sparse: SparseMode::Subdivide,
             quadric_mapping: true,
+            max_faces: 200_000_000,
         }
     }
 }
@@ -208,6 +212,17 @@ pub enum ReconError {
         count: usize,
         /// The limit.
         max: usize,
+    },
+    /// A level would have more faces than [`ReconOptions::max_faces`] (subdividing far past the
+    /// density limit multiplies faces by 4 per level).
+    #[error("level {level} would have {faces} faces, more than the limit of {max}; ask for a coarser level")]
+    TooManyFaces {
+        /// The level.
+        level: u32,
+        /// Its face count.
+        faces: u64,
+        /// The limit.
+        max: u64,
     },
     /// The requested level is 0 or too deep.
     #[error("level {requested} is outside the supported range 1..={max}")]
@@ -506,6 +521,11 @@ pub fn reconstruct_with(
                 ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2])) * h).collect();
             LevelState { slots, quads: ex.quads, corners: ex.corners, positions, origins }
         } else {
+            // Check the finest level's face count before building any subdivided level.
+            let faces = (prev.quads.len() as u64).saturating_mul(4u64.saturating_pow(finest - j + 1));
+            if faces > opts.max_faces.min(u64::from(u32::MAX / 4)) {
+                return Err(ReconError::TooManyFaces { level: finest, faces, max: opts.max_faces });
+            }
             rep.kind = LevelKind::Subdivided;
             stage(Stage::Irregular);
             let t = Instant::now();

@@ -57,6 +57,8 @@ fn non_finite_points_are_rejected_with_their_count() {
 #[test]
 fn bad_levels_are_rejected() {
     let pts = support::sphere(500);
+    // Subdividing 15 levels past the density limit would need billions of faces.
+    assert!(matches!(reconstruct(&pts, &level(20)), Err(ReconError::TooManyFaces { .. })));
     assert!(matches!(reconstruct(&pts, &level(0)), Err(ReconError::BadLevel { requested: 0, .. })));
     assert!(matches!(reconstruct(&pts, &level(99)), Err(ReconError::BadLevel { requested: 99, .. })));
 }
