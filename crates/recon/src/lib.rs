@@ -65,13 +65,13 @@
 //!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped. By default
 //!   ([`ReconOptions::quadric_mapping`]) a wrapped level's vertex goes instead onto a weighted
 //!   height-field quadric of `W`'s points within one edge (Gaussian weights of half an edge): on
-//!   the bunny 3-11 % closer to the points than the paper's plane at levels 1-5, on the dragon
-//!   1-7 % at levels 2-7 (5 % worse at level 1); the plane remains the fallback under 10 points.
+//!   the bunny 3-8 % closer to the points than the paper's plane at levels 1-5, on the dragon
+//!   1-5 % at levels 2-7 (4 % worse at level 1), for about 30 % more time; the plane remains the fallback under 10 points.
 //! * **Relaxation (§3.6.1)**: Laplacian to the one-ring centroid, then re-projection on the
 //!   vertex's own plane. The paper relaxes every level; measured (`tools/bench/RESULTS.md`), it
 //!   lowers the bunny's points-to-mesh error by up to 19 % from level 4 on but raises it by up to
-//!   55 % at levels 1-3 (the centroid of a coarse one-ring lies far inside), and is neutral on the
-//!   dragon past level 2. So the default is the paper's 4 passes from level 4 on
+//!   2x at levels 1-2 (the centroid of a coarse one-ring lies far inside), and is neutral on the
+//!   dragon past level 3. So the default is the paper's 4 passes from level 4 on
 //!   ([`ReconOptions::relax_from_level`]).
 //! * **Sparse data (§4.2)**: a level is trusted while the median points per occupied voxel is at
 //!   least 8; [`MaxLevel::Auto`] stops there; deeper levels asked for are subdivided and mapped.
@@ -145,9 +145,9 @@ pub struct ReconOptions {
     /// Default 4, as in the paper.
     pub relax_passes: u32,
     /// The coarsest level relaxed. Default 4: measured on the bunny, 4 passes cut the
-    /// points-to-mesh error by 3-19 % at levels 4-7 but raise it by 6-55 % at levels 1-3, where
+    /// points-to-mesh error by 3-19 % at levels 4-7 but raise it by up to 2x at levels 1-2, where
     /// the one-ring centroid of a coarse hull lies far inside the surface; on the dragon they are
-    /// neutral from level 3 on and double the error at levels 1-2 (`tools/bench/RESULTS.md`).
+    /// neutral from level 3 on (`tools/bench/RESULTS.md`).
     pub relax_from_level: u32,
     /// Padding of the root cube, as a fraction of the points' longest extent on each side.
     /// Default 0.01.
