@@ -26,7 +26,7 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
-use crate::text::{Lines, expect_f32, expect_f64, parse_f64, parse_i64, strip_comment, tokens, truncated};
+use crate::text::{LineWriter, Lines, expect_f32, expect_f64, parse_f64, parse_i64, strip_comment, tokens, truncated};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions};
 
 /// Reads a whole OBJ file held in memory.
@@ -165,13 +165,10 @@ fn resolve(tok: &[u8], count: usize, what: &str, lines: &Lines<'_>) -> Result<u3
 pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Result<()> {
     use std::fmt::Write as _;
     let v = &mesh.vertices;
-    let mut s = String::with_capacity(1 << 16);
-    s.push_str("# written by octowrap\n");
-    let flush = |s: &mut String, w: &mut dyn Write| -> Result<()> {
-        w.write_all(s.as_bytes()).map_err(Error::io)?;
-        s.clear();
-        Ok(())
-    };
+    let mut s = LineWriter::new(w);
+    // Writing to the buffer cannot fail.
+    let _ = write!(s, "# written by octowrap");
+    s.end_line()?;
     // Writing to a String cannot fail.
     for (i, p) in v.positions.iter().enumerate() {
         let _ = write!(s, "v {} {} {}", p.x, p.y, p.z);
@@ -179,22 +176,17 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Res
             let [r, g, b] = c.map(|c| f64::from(c) / 255.0);
             let _ = write!(s, " {r} {g} {b}");
         }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
+        s.end_line()?;
     }
     if let Some(normals) = &v.normals {
         for n in normals {
-            let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
-            if s.len() > 60_000 {
-                flush(&mut s, w)?;
-            }
+            let _ = write!(s, "vn {} {} {}", n.x, n.y, n.z);
+            s.end_line()?;
         }
     }
     let with_normals = v.normals.is_some();
     for f in mesh.faces.iter() {
-        s.push('f');
+        let _ = write!(s, "f");
         for &i in f {
             let k = u64::from(i) + 1;
             if with_normals {
@@ -203,12 +195,9 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Res
                 let _ = write!(s, " {k}");
             }
         }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
+        s.end_line()?;
     }
-    flush(&mut s, w)
+    s.finish()
 }
 
 #[cfg(test)]

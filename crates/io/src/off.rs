@@ -23,7 +23,9 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
-use crate::text::{Lines, color_component, expect_f32, expect_f64, parse_i64, strip_comment, tokens, truncated};
+use crate::text::{
+    LineWriter, Lines, color_component, expect_f32, expect_f64, parse_i64, strip_comment, tokens, truncated,
+};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// The next line with content after removing comments, tokenised.
@@ -151,16 +153,11 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
 pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Result<()> {
     use std::fmt::Write as _;
     let v = &mesh.vertices;
-    let mut s = String::with_capacity(1 << 16);
+    let mut s = LineWriter::new(w);
     let c = if v.colors.is_some() { "C" } else { "" };
     let n = if v.normals.is_some() { "N" } else { "" };
     // Writing to a String cannot fail.
     let _ = write!(s, "{c}{n}OFF\n# written by octowrap\n{} {} 0\n", v.len(), mesh.faces.len());
-    let flush = |s: &mut String, w: &mut dyn Write| -> Result<()> {
-        w.write_all(s.as_bytes()).map_err(Error::io)?;
-        s.clear();
-        Ok(())
-    };
     for (i, p) in v.positions.iter().enumerate() {
         let _ = write!(s, "{} {} {}", p.x, p.y, p.z);
         if let Some(n) = v.normals.as_ref().and_then(|n| n.get(i)) {
@@ -169,22 +166,10 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Res
         if let Some([r, g, b]) = v.colors.as_ref().and_then(|c| c.get(i)) {
             let _ = write!(s, " {r} {g} {b} 255");
         }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
+        s.end_line()?;
     }
-    for f in mesh.faces.iter() {
-        let _ = write!(s, "{}", f.len());
-        for i in f {
-            let _ = write!(s, " {i}");
-        }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
-    }
-    flush(&mut s, w)
+    s.counted_faces(&mesh.faces)?;
+    s.finish()
 }
 
 #[cfg(test)]

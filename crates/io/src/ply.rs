@@ -37,6 +37,7 @@ mod header;
 
 use std::io::Write;
 
+use crate::text::LineWriter;
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions};
 
 /// Reads a whole PLY file held in memory.
@@ -90,12 +91,7 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Resu
 fn write_ascii(w: &mut dyn Write, mesh: &Mesh, double: bool) -> Result<()> {
     use std::fmt::Write as _;
     let v = &mesh.vertices;
-    let mut s = String::with_capacity(1 << 16);
-    let flush = |s: &mut String, w: &mut dyn Write| -> Result<()> {
-        w.write_all(s.as_bytes()).map_err(Error::io)?;
-        s.clear();
-        Ok(())
-    };
+    let mut s = LineWriter::new(w);
     for (i, p) in v.positions.iter().enumerate() {
         // Writing to a String cannot fail.
         if double {
@@ -112,22 +108,10 @@ fn write_ascii(w: &mut dyn Write, mesh: &Mesh, double: bool) -> Result<()> {
         if let Some(t) = v.intensities.as_ref().and_then(|t| t.get(i)) {
             let _ = write!(s, " {t}");
         }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
+        s.end_line()?;
     }
-    for f in mesh.faces.iter() {
-        let _ = write!(s, "{}", f.len());
-        for i in f {
-            let _ = write!(s, " {i}");
-        }
-        s.push('\n');
-        if s.len() > 60_000 {
-            flush(&mut s, w)?;
-        }
-    }
-    flush(&mut s, w)
+    s.counted_faces(&mesh.faces)?;
+    s.finish()
 }
 
 fn write_binary(w: &mut dyn Write, mesh: &Mesh, double: bool, long_faces: bool) -> Result<()> {

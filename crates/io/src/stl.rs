@@ -32,7 +32,7 @@ use std::io::Write;
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, PointCloud};
 
-use crate::text::{Tokens, truncated};
+use crate::text::{LineWriter, Tokens, truncated};
 use crate::{Error, Limits, Location, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// Whether `data` is a binary STL: an 80-byte header, a triangle count, and exactly 50 bytes per
@@ -233,24 +233,23 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, opts: &WriteOptions) -> Resu
     };
     if opts.ascii {
         use std::fmt::Write as _;
-        let mut s = String::with_capacity(1 << 16);
-        s.push_str("solid octowrap\n");
+        let mut s = LineWriter::new(w);
+        // Writing to the buffer cannot fail.
+        let _ = write!(s, "solid octowrap");
+        s.end_line()?;
         for t in &tris {
             let n = normal(t).as_vec3();
-            // Writing to a String cannot fail.
-            let _ = writeln!(s, "facet normal {} {} {}\nouter loop", n.x, n.y, n.z);
+            let _ = write!(s, "facet normal {} {} {}\nouter loop", n.x, n.y, n.z);
             for &i in t {
                 let v = pos(i);
-                let _ = writeln!(s, "vertex {} {} {}", v.x, v.y, v.z);
+                let _ = write!(s, "\nvertex {} {} {}", v.x, v.y, v.z);
             }
-            s.push_str("endloop\nendfacet\n");
-            if s.len() > 60_000 {
-                w.write_all(s.as_bytes()).map_err(Error::io)?;
-                s.clear();
-            }
+            let _ = write!(s, "\nendloop\nendfacet");
+            s.end_line()?;
         }
-        s.push_str("endsolid octowrap\n");
-        return w.write_all(s.as_bytes()).map_err(Error::io);
+        let _ = write!(s, "endsolid octowrap");
+        s.end_line()?;
+        return s.finish();
     }
     let count = u32::try_from(tris.len())
         .map_err(|_| Error::unsupported(Location::Unknown, "binary STL holds at most 2^32-1 triangles"))?;

@@ -402,6 +402,57 @@ pub(crate) fn unit_to_u8(v: f64) -> u8 {
     (v * 255.0).round().clamp(0.0, 255.0) as u8
 }
 
+/// Text output built line by line and handed to the writer in chunks of about 64 kB, shared by
+/// the text writers. Write into it with `write!` (writing to memory cannot fail), then end each
+/// line with [`LineWriter::end_line`].
+pub(crate) struct LineWriter<'w> {
+    buf: String,
+    out: &'w mut dyn std::io::Write,
+}
+
+impl<'w> LineWriter<'w> {
+    pub(crate) fn new(out: &'w mut dyn std::io::Write) -> Self {
+        Self { buf: String::with_capacity(1 << 16), out }
+    }
+
+    /// Ends the current line, passing the buffer on once it is full.
+    pub(crate) fn end_line(&mut self) -> Result<()> {
+        self.buf.push('\n');
+        if self.buf.len() > 60_000 { self.flush() } else { Ok(()) }
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        self.out.write_all(self.buf.as_bytes()).map_err(Error::io)?;
+        self.buf.clear();
+        Ok(())
+    }
+
+    /// Writes what is left.
+    pub(crate) fn finish(mut self) -> Result<()> {
+        self.flush()
+    }
+
+    /// Faces as lines `n i j k ...`, as OFF and ascii PLY store them.
+    pub(crate) fn counted_faces(&mut self, faces: &octowrap_mesh::FaceList) -> Result<()> {
+        use std::fmt::Write as _;
+        for f in faces.iter() {
+            let _ = write!(self.buf, "{}", f.len());
+            for i in f {
+                let _ = write!(self.buf, " {i}");
+            }
+            self.end_line()?;
+        }
+        Ok(())
+    }
+}
+
+impl std::fmt::Write for LineWriter<'_> {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        self.buf.push_str(s);
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,7 +21,7 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::PointCloud;
 
-use crate::text::{Lines, parse_f32, parse_f64, parse_i64, strip_comment, truncated};
+use crate::text::{LineWriter, Lines, parse_f32, parse_f64, parse_i64, strip_comment, truncated};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// The columns of a line: split at whitespace and commas.
@@ -111,20 +111,16 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
 pub(crate) fn write(w: &mut dyn Write, mesh: &Mesh, _opts: &WriteOptions) -> Result<()> {
     use std::fmt::Write as _;
     let v = &mesh.vertices;
-    let mut s = String::with_capacity(1 << 16);
+    let mut s = LineWriter::new(w);
     for (i, p) in v.positions.iter().enumerate() {
         // Writing to a String cannot fail.
         let _ = write!(s, "{} {} {}", p.x, p.y, p.z);
         if let Some(n) = v.normals.as_ref().and_then(|n| n.get(i)) {
             let _ = write!(s, " {} {} {}", n.x, n.y, n.z);
         }
-        s.push('\n');
-        if s.len() > 60_000 {
-            w.write_all(s.as_bytes()).map_err(Error::io)?;
-            s.clear();
-        }
+        s.end_line()?;
     }
-    w.write_all(s.as_bytes()).map_err(Error::io)
+    s.finish()
 }
 
 #[cfg(test)]
