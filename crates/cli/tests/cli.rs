@@ -1,19 +1,8 @@
 //! The `octowrap` binary as a user runs it: outputs, messages and exit codes.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+mod common;
 
-fn octowrap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octowrap")).args(args).stdin(Stdio::null()).output().expect("runs")
-}
-
-fn kitten() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+use common::{kitten, octowrap, text};
 
 #[test]
 fn info_reports_counts_as_json() {

@@ -1,19 +1,8 @@
 //! `octowrap reconstruct` as a user runs it: outputs, the timing table, levels, errors.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+mod common;
 
-fn octowrap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octowrap")).args(args).stdin(Stdio::null()).output().expect("runs")
-}
-
-fn kitten() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+use common::{kitten, octowrap, text};
 
 #[test]
 fn writes_the_finest_level_all_levels_and_timings() {

@@ -3,22 +3,12 @@
 //! Snapshots live in `tests/snapshots/`; run with `UPDATE_SNAPSHOTS=1` to rewrite them after an
 //! intended change, and review the diff.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::Path;
+use std::process::Output;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
 
-/// Runs octowrap from the repository root so that file names in reports are relative and stable.
-fn octowrap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octowrap"))
-        .args(args)
-        .current_dir(root())
-        .stdin(Stdio::null())
-        .output()
-        .expect("runs")
-}
+use common::octowrap_in_root as octowrap;
 
 fn snapshot(name: &str, out: &Output, stream: &[u8]) {
     let text = format!("exit code: {:?}\n{}", out.status.code(), String::from_utf8_lossy(stream));
