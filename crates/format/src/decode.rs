@@ -518,37 +518,89 @@ fn finish(
 }
 
 /// The sorted distinct predicted names, and per corner the index of its name (`NONE` for corners
-/// without a prediction). LSD radix sort on 11-bit digits: linear in the corner count.
+/// without a prediction). LSD radix sort on 11-bit digits, skipping the digits where all names
+/// agree; (name - smallest name, corner) packed in one `u64` when both fit: linear in the corner
+/// count.
 fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
-    let mut idx: Vec<u32> = (0..pred.len() as u32).filter(|&c| pred[c as usize] != u64::MAX).collect();
-    let max = idx.iter().map(|&c| pred[c as usize]).max().unwrap_or(0);
-    let bits = 64 - max.leading_zeros();
-    let mut tmp = vec![0u32; idx.len()];
-    let mut shift = 0;
-    while shift < bits {
-        let mut count = vec![0usize; 2049];
-        for &c in &idx {
-            count[((pred[c as usize] >> shift) & 2047) as usize + 1] += 1;
+    let (mut lo, mut hi) = (u64::MAX, 0u64);
+    let mut n = 0usize;
+    for &p in pred {
+        if p != u64::MAX {
+            lo = lo.min(p);
+            hi = hi.max(p);
+            n += 1;
         }
-        for i in 0..2048 {
-            count[i + 1] += count[i];
-        }
-        for &c in &idx {
-            let d = ((pred[c as usize] >> shift) & 2047) as usize;
-            tmp[count[d]] = c;
-            count[d] += 1;
-        }
-        std::mem::swap(&mut idx, &mut tmp);
-        shift += 11;
     }
-    let mut names = Vec::new();
+    let mut names = Vec::with_capacity(n / 2);
     let mut name_of = vec![NONE; pred.len()];
-    for &c in &idx {
-        let key = pred[c as usize];
-        if names.last() != Some(&key) {
-            names.push(key);
+    if n == 0 {
+        return (names, name_of);
+    }
+    let kbits = 64 - (hi - lo).leading_zeros();
+    let cbits = 64 - (pred.len() as u64).leading_zeros();
+    if kbits + cbits <= 64 {
+        let mut keys: Vec<u64> = Vec::with_capacity(n);
+        for (c, &p) in pred.iter().enumerate() {
+            if p != u64::MAX {
+                keys.push((p - lo) << cbits | c as u64);
+            }
         }
-        name_of[c as usize] = names.len() as u32 - 1;
+        let mut tmp = vec![0u64; n];
+        radix_passes(&mut keys, &mut tmp, cbits, cbits + kbits, |x| x);
+        let cmask = (1u64 << cbits) - 1;
+        for &x in &keys {
+            let key = (x >> cbits) + lo;
+            if names.last() != Some(&key) {
+                names.push(key);
+            }
+            name_of[(x & cmask) as usize] = names.len() as u32 - 1;
+        }
+    } else {
+        let mut pairs: Vec<(u64, u32)> = Vec::with_capacity(n);
+        for (c, &p) in pred.iter().enumerate() {
+            if p != u64::MAX {
+                pairs.push((p - lo, c as u32));
+            }
+        }
+        let mut tmp = vec![(0u64, 0u32); n];
+        radix_passes(&mut pairs, &mut tmp, 0, kbits, |x| x.0);
+        for &(key, c) in &pairs {
+            let key = key + lo;
+            if names.last() != Some(&key) {
+                names.push(key);
+            }
+            name_of[c as usize] = names.len() as u32 - 1;
+        }
     }
     (names, name_of)
+}
+
+/// Stable LSD radix sort of `items` by bits `from .. to` of `key(item)`, 11 bits per pass; passes
+/// whose digit is the same for every item are skipped.
+fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u32, key: impl Fn(T) -> u64) {
+    let mut count = [0u32; 2048];
+    let mut shift = from;
+    while shift < to {
+        count.fill(0);
+        for &x in items.iter() {
+            count[((key(x) >> shift) & 2047) as usize] += 1;
+        }
+        if count.iter().any(|&c| c as usize == items.len()) {
+            shift += 11;
+            continue;
+        }
+        let mut acc = 0u32;
+        for c in &mut count {
+            let here = *c;
+            *c = acc;
+            acc += here;
+        }
+        for &x in items.iter() {
+            let d = ((key(x) >> shift) & 2047) as usize;
+            tmp[count[d] as usize] = x;
+            count[d] += 1;
+        }
+        std::mem::swap(items, tmp);
+        shift += 11;
+    }
 }

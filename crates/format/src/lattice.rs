@@ -60,26 +60,42 @@ pub fn slot_from_key(key: u64, depth: u32) -> Option<([u32; 3], u8)> {
 /// Morton slot key (spec §5.3): `morton(v) * 6 + side`, where `morton` interleaves the voxel's
 /// bits as `... z1 y1 x1 z0 y0 x0`. Orders created faces along a space-filling curve.
 pub fn morton_slot_key(voxel: [u32; 3], side: u8) -> u64 {
-    let mut m = 0u64;
-    for bit in 0..21 {
-        for (a, &c) in voxel.iter().enumerate() {
-            m |= u64::from((c >> bit) & 1) << (3 * bit + a);
-        }
-    }
+    let m = spread3(voxel[0]) | spread3(voxel[1]) << 1 | spread3(voxel[2]) << 2;
     m * 6 + u64::from(side)
+}
+
+/// Bits 0-20 of `x` moved to bits 0, 3, 6, ... 60.
+fn spread3(x: u32) -> u64 {
+    let mut v = u64::from(x) & 0x1f_ffff;
+    v = (v | v << 32) & 0x001f_0000_0000_ffff;
+    v = (v | v << 16) & 0x001f_0000_ff00_00ff;
+    v = (v | v << 8) & 0x100f_00f0_0f00_f00f;
+    v = (v | v << 4) & 0x10c3_0c30_c30c_30c3;
+    v = (v | v << 2) & 0x1249_2492_4924_9249;
+    v
+}
+
+/// The inverse of [`spread3`]: bits 0, 3, 6, ... 60 of `v` packed into bits 0-20.
+fn compact3(v: u64) -> u32 {
+    let mut v = v & 0x1249_2492_4924_9249;
+    v = (v | v >> 2) & 0x10c3_0c30_c30c_30c3;
+    v = (v | v >> 4) & 0x100f_00f0_0f00_f00f;
+    v = (v | v >> 8) & 0x001f_0000_ff00_00ff;
+    v = (v | v >> 16) & 0x001f_0000_0000_ffff;
+    v = (v | v >> 32) & 0x1f_ffff;
+    v as u32
 }
 
 /// Inverse of [`morton_slot_key`]; `None` when the slot lies outside depth `k`.
 pub fn slot_from_morton_key(key: u64, depth: u32) -> Option<([u32; 3], u8)> {
     let side = (key % 6) as u8;
     let m = key / 6;
-    let mut v = [0u32; 3];
-    for bit in 0..21 {
-        for (a, c) in v.iter_mut().enumerate() {
-            *c |= (((m >> (3 * bit + a)) & 1) as u32) << bit;
-        }
+    // 21 bits per axis hold 63 bits; bit 63 of `m` would be lost (and cannot be a valid voxel).
+    if m >> 63 != 0 {
+        return None;
     }
-    (morton_slot_key(v, side) == key && slot_in_range(v, side, depth)).then_some((v, side))
+    let v = [compact3(m), compact3(m >> 1), compact3(m >> 2)];
+    slot_in_range(v, side, depth).then_some((v, side))
 }
 
 /// Corner key at depth `k`: `(z * (N + 1) + y) * (N + 1) + x`, `N = 2^k`.
@@ -162,6 +178,12 @@ mod tests {
             assert_eq!(slot_from_morton_key(morton_slot_key(v, d), 3), Some((v, d)));
         }
         assert_eq!(slot_from_morton_key(morton_slot_key([8, 0, 0], 0), 3), None);
+        for x in [0u32, 1, 5, 0x1f_ffff, 0x12_3456] {
+            let naive: u64 = (0..21).map(|b| u64::from((x >> b) & 1) << (3 * b)).sum();
+            assert_eq!(spread3(x), naive);
+            assert_eq!(compact3(naive), x);
+        }
+        assert_eq!(slot_from_morton_key(u64::MAX, 20), None);
         assert_eq!(corner_from_key(125, 2), None);
     }
 

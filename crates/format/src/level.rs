@@ -72,15 +72,21 @@ pub fn rotated(rot: u8, k: usize) -> usize {
 }
 
 /// `a / b` rounded to the nearest integer, halves upwards (`b > 0`).
+#[inline]
 pub fn round_div(a: i64, b: i64) -> i64 {
-    if a.unsigned_abs() < 1 << 60 && b < 1 << 60 {
+    if b & (b - 1) == 0 && a.unsigned_abs() < 1 << 61 && b < 1 << 61 {
+        // floor((2a + b) / 2b) for a power of two b: an arithmetic shift.
+        (2 * a + b) >> (b.trailing_zeros() + 1)
+    } else if a.unsigned_abs() < 1 << 29 && b < 1 << 29 {
+        // The common case in 32 bits (a faster division).
+        (2 * a as i32 + b as i32).div_euclid(2 * b as i32) as i64
+    } else if a.unsigned_abs() < 1 << 60 && b < 1 << 60 {
         (2 * a + b).div_euclid(2 * b)
     } else {
         // Exact for any operands a hostile file can produce.
         ((2 * i128::from(a) + i128::from(b)).div_euclid(2 * i128::from(b))) as i64
     }
 }
-
 /// Edge numbering of a polygon mesh in order of first appearance (spec §5.4): for every face
 /// corner, the id of the edge from it to the next corner, and the number of edges.
 pub fn number_edges(offsets: &[u32], indices: &[u32]) -> (Vec<u32>, u32) {
@@ -224,10 +230,13 @@ fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [
     s
 }
 
-#[allow(clippy::too_many_lines)] // spec §6.2-§6.5 in one place, so both directions share it
+#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.5 in one place, so both directions share it
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
 /// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates (the
 /// decoder adds the residual, the encoder records `q - prediction` and returns `q`).
+///
+/// Flat arrays only: per vertex its context corner and face, and its neighbours (previous and
+/// next corner of every incident corner, in corner order) as one CSR list built by counting.
 pub fn geometry_pass<E>(
     topo: &Topo<'_>,
     parent: Option<&Parent<'_>>,
@@ -235,112 +244,106 @@ pub fn geometry_pass<E>(
     mut step: impl FnMut(usize, [i64; 3]) -> Result<[i64; 3], E>,
 ) -> Result<(), E> {
     let nv = q.len();
-    // Context: the first predicted, non-exception subface corner of every vertex.
+    let nf = topo.offsets.len() - 1;
+    let indices = topo.indices;
+    let offsets = topo.offsets;
+    // Context (§6.2): the first predicted, non-exception subface corner of every vertex, and its face.
     let mut ctx = vec![NONE; nv];
+    let mut ctx_face = vec![0u32; if parent.is_some() { nv } else { 0 }];
+    let mut missing = nv;
     if parent.is_some() {
-        for f in 0..topo.parents.len() {
+        for f in 0..nf {
             if topo.parents[f] == NO_PARENT {
                 continue;
             }
-            for c in topo.offsets[f] as usize..topo.offsets[f + 1] as usize {
-                let v = topo.indices[c] as usize;
+            for c in offsets[f] as usize..offsets[f + 1] as usize {
+                let v = indices[c] as usize;
                 if topo.corner_pos[c] != NONE && ctx[v] == NONE {
                     ctx[v] = c as u32;
+                    ctx_face[v] = f as u32;
+                    missing -= 1;
                 }
             }
         }
     }
-    // Vertex-to-corner incidence (corner order) and the face of every corner.
-    let mut face_of_corner = vec![0u32; topo.indices.len()];
-    for f in 0..topo.offsets.len() - 1 {
-        for c in topo.offsets[f]..topo.offsets[f + 1] {
-            face_of_corner[c as usize] = f as u32;
-        }
-    }
-    let mut start = vec![0u32; nv + 1];
-    for &v in topo.indices {
-        start[v as usize + 1] += 1;
+    // Neighbours: `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next vertex of the `j`-th
+    // incident corner; vertex v's corners are `j` in `begin(v) .. end[v]`, in corner order.
+    let mut end = vec![0u32; nv + 1];
+    for &v in indices {
+        end[v as usize + 1] += 1;
     }
     for i in 0..nv {
-        start[i + 1] += start[i];
+        end[i + 1] += end[i];
     }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; topo.indices.len()];
-    for (c, &v) in topo.indices.iter().enumerate() {
-        inc[fill[v as usize] as usize] = c as u32;
-        fill[v as usize] += 1;
+    let mut nbr = vec![0u32; 2 * indices.len()];
+    for f in 0..nf {
+        let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
+        let face = &indices[a..b];
+        let n = face.len();
+        for i in 0..n {
+            let v = face[i] as usize;
+            let j = end[v] as usize;
+            end[v] += 1;
+            nbr[2 * j] = face[if i == 0 { n - 1 } else { i - 1 }];
+            nbr[2 * j + 1] = face[if i + 1 == n { 0 } else { i + 1 }];
+        }
     }
-    let mut bias = vec![[0i64; 3]; if parent.is_some() { nv } else { 0 }];
+    // `end[v]` is now the end of v's corners and `end[v - 1]` their beginning.
+    let range = |v: usize| (if v == 0 { 0 } else { end[v - 1] as usize } * 2)..(end[v] as usize * 2);
     if let Some(p) = parent {
-        // Pass A: vertices with a parent context, in index order.
+        // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
+        // not decoded yet and for vertices without a context, so the sums below need no test.
+        // |bias| <= 2^29 + 2^28 fits i32.
+        let mut bias = vec![[0i32; 3]; nv];
+        let lattice_mode = topo.mode == Mode::Lattice;
         for v in 0..nv {
             let c = ctx[v];
             if c == NONE {
                 continue;
             }
-            let f = face_of_corner[c as usize] as usize;
+            let f = ctx_face[v] as usize;
             let pf = topo.parents[f] as usize;
-            let pred = if topo.mode == Mode::Lattice {
-                {
-                    let quads = topo.parent_quads.expect("lattice mode has parent quads");
-                    let slots = p.slots.expect("lattice parent");
-                    let corners = topo.vertex_corners.expect("lattice level");
-                    if topo.predictor == PREDICTOR_BILINEAR {
-                        bilinear_prediction(p.q, quads[pf].0, slots[pf], corners[v])
-                    } else {
-                        lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
-                    }
+            let pred = if lattice_mode {
+                let quads = topo.parent_quads.expect("lattice mode has parent quads");
+                let slots = p.slots.expect("lattice parent");
+                let corners = topo.vertex_corners.expect("lattice level");
+                if topo.predictor == PREDICTOR_BILINEAR {
+                    bilinear_prediction(p.q, quads[pf].0, slots[pf], corners[v])
+                } else {
+                    lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
                 }
             } else {
-                {
-                    let face = p.face(pf);
-                    let n = face.len();
-                    let qd = usize::from(topo.quadrants[f]);
-                    let at = |i: usize| p.q[face[i % n] as usize];
-                    let pos = topo.corner_pos[c as usize];
-                    let mut sum = [0i64; 3];
-                    let mut w = 0i64;
-                    let mut add = |x: [i64; 3]| {
-                        for a in 0..3 {
-                            sum[a] += x[a];
+                let face = p.face(pf);
+                let n = face.len();
+                let qd = usize::from(topo.quadrants[f]);
+                let at = |i: usize| p.q[face[i % n] as usize];
+                let two = |x: [i64; 3], y: [i64; 3]| [0, 1, 2].map(|a| round_div(x[a] + y[a], 2));
+                match topo.corner_pos[c as usize] {
+                    0 => at(qd),
+                    1 => two(at(qd), at(qd + 1)),
+                    2 => {
+                        let mut sum = [0i64; 3];
+                        for &u in face {
+                            for a in 0..3 {
+                                sum[a] += p.q[u as usize][a];
+                            }
                         }
-                        w += 1;
-                    };
-                    match pos {
-                        0 => add(at(qd)),
-                        1 => {
-                            add(at(qd));
-                            add(at(qd + 1));
-                        }
-                        2 => (0..n).for_each(|i| add(at(i))),
-                        _ => {
-                            add(at(qd + n - 1));
-                            add(at(qd));
-                        }
+                        sum.map(|s| round_div(s, n as i64))
                     }
-                    sum.map(|s| round_div(s, w))
+                    _ => two(at(qd + n - 1), at(qd)),
                 }
             };
             // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
             let base = clamp(pred);
             let mut sum = [0i64; 3];
             let mut count = 0i64;
-            for &c in &inc[start[v] as usize..start[v + 1] as usize] {
-                let f = face_of_corner[c as usize] as usize;
-                let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
-                let n = b - a;
-                let i = c as usize - a;
-                let prev = if i == 0 { b - 1 } else { a + i - 1 };
-                let next = if i + 1 == n { a } else { a + i + 1 };
-                for u in [topo.indices[prev], topo.indices[next]] {
-                    // Branch-free: the bias of a vertex not decoded yet is still zero.
-                    let u = u as usize;
-                    let counted = u < v && ctx[u] != NONE;
-                    for k in 0..3 {
-                        sum[k] = sum[k].saturating_add(bias[u][k]);
-                    }
-                    count += i64::from(counted);
+            for &u in &nbr[range(v)] {
+                let u = u as usize;
+                let b = bias[u];
+                for k in 0..3 {
+                    sum[k] = sum[k].saturating_add(i64::from(b[k]));
                 }
+                count += i64::from(u < v && ctx[u] != NONE);
             }
             let mut pred = base;
             if count > 0 {
@@ -348,13 +351,12 @@ pub fn geometry_pass<E>(
                     pred[k] += round_div(sum[k].saturating_mul(3), 4 * count);
                 }
             }
-            q[v] = step(v, clamp(pred))?;
-            for k in 0..3 {
-                bias[v][k] = q[v][k] - base[k];
-            }
+            let qv = step(v, clamp(pred))?;
+            q[v] = qv;
+            bias[v] = [0, 1, 2].map(|k| (qv[k] - base[k]) as i32);
         }
     }
-    if ctx.iter().all(|&c| c != NONE) {
+    if missing == 0 {
         return Ok(());
     }
     // Pass B: the other vertices in index order, from already decoded neighbours.
@@ -371,22 +373,14 @@ pub fn geometry_pass<E>(
         }
         let mut sum = [0i64; 3];
         let mut count = 0i64;
-        for &c in &inc[start[v] as usize..start[v + 1] as usize] {
-            let f = face_of_corner[c as usize] as usize;
-            let (a, b) = (topo.offsets[f] as usize, topo.offsets[f + 1] as usize);
-            let n = b - a;
-            let i = c as usize - a;
-            let prev = if i == 0 { b - 1 } else { a + i - 1 };
-            let next = if i + 1 == n { a } else { a + i + 1 };
-            for u in [topo.indices[prev], topo.indices[next]] {
-                let u = u as usize;
-                if ctx[u] != NONE || u < v {
-                    let l = lp(u);
-                    for k in 0..3 {
-                        sum[k] = sum[k].saturating_add(q[u][k] - l[k]);
-                    }
-                    count += 1;
+        for &u in &nbr[range(v)] {
+            let u = u as usize;
+            if ctx[u] != NONE || u < v {
+                let l = lp(u);
+                for k in 0..3 {
+                    sum[k] = sum[k].saturating_add(q[u][k] - l[k]);
                 }
+                count += 1;
             }
         }
         let l = lp(v);
@@ -432,4 +426,22 @@ pub fn lattice_prediction(
     }
     let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
     [0, 1, 2].map(|k| l[k].saturating_add((nf[k] * t).round() as i64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round_div;
+
+    #[test]
+    fn round_div_matches_the_wide_formula() {
+        let wide = |a: i64, b: i64| ((2 * i128::from(a) + i128::from(b)).div_euclid(2 * i128::from(b))) as i64;
+        let vals = [0i64, 1, -1, 2, -2, 3, -3, 5, -7, 1 << 28, -(1 << 28), (1 << 29) - 1, 1 << 29, 1 << 40, -(1 << 40)];
+        let big = [(1i64 << 60) + 3, -(1i64 << 60) - 5, (1 << 61) - 1, 1 << 61, i64::MAX / 2, i64::MIN / 2];
+        let divs = [1i64, 2, 3, 4, 5, 8, 12, 16, 1 << 28, (1 << 29) + 1, 1 << 30, 1 << 40, 1 << 60, 1 << 61, 1 << 62];
+        for &a in vals.iter().chain(&big) {
+            for &b in &divs {
+                assert_eq!(round_div(a, b), wide(a, b), "{a} / {b}");
+            }
+        }
+    }
 }
