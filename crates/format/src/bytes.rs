@@ -35,6 +35,7 @@ pub fn put_planes(out: &mut Vec<u8>, values: &[u64]) {
 
 /// A cursor over one stream of a level's decompressed payload (or over the preamble).
 /// Every read is bounds-checked; failures name the stream and the absolute offset.
+#[derive(Clone)]
 pub struct Reader<'a> {
     data: &'a [u8],
     pos: usize,
@@ -130,6 +131,20 @@ impl<'a> Reader<'a> {
         Ok(v)
     }
 
+    /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes,
+    /// without copying: values are assembled on access.
+    pub fn plane_view(&mut self, n: usize, max_planes: u8) -> Result<Planes<'a>, Error> {
+        let p = self.u8()?;
+        if p > max_planes {
+            return Err(self.invalid(format!("plane count {p} exceeds {max_planes}")));
+        }
+        let need = n.checked_mul(usize::from(p)).ok_or_else(|| self.invalid("plane block too large"))?;
+        if need > self.remaining() {
+            return Err(self.invalid(format!("plane block needs {need} bytes, {} left", self.remaining())));
+        }
+        Ok(Planes { bytes: self.bytes(need)?, n, count: usize::from(p) })
+    }
+
     /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes.
     pub fn planes(&mut self, n: usize, max_planes: u8) -> Result<Vec<u64>, Error> {
         let p = self.u8()?;
@@ -152,6 +167,25 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// A byte-plane block read in place (see [`Reader::plane_view`]).
+pub struct Planes<'a> {
+    bytes: &'a [u8],
+    n: usize,
+    count: usize,
+}
+
+impl Planes<'_> {
+    /// Value `v` (`v < n`).
+    #[inline]
+    pub fn get(&self, v: usize) -> u64 {
+        let mut x = 0u64;
+        for p in 0..self.count {
+            x |= u64::from(self.bytes[p * self.n + v]) << (8 * p);
+        }
+        x
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -168,7 +202,10 @@ mod tests {
         for &v in &vals {
             assert_eq!(r.varint().unwrap(), v);
         }
+        let mut r2 = r.clone();
         assert_eq!(r.planes(3, 8).unwrap(), vec![1, 700, 3]);
+        let view = r2.plane_view(3, 8).unwrap();
+        assert_eq!([view.get(0), view.get(1), view.get(2)], [1, 700, 3]);
         r.finish().unwrap();
         for v in [-3i64, -1, 0, 1, i64::MIN, i64::MAX] {
             assert_eq!(unzigzag(zigzag(v)), v);

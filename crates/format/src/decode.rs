@@ -6,8 +6,8 @@ use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, STREAM_NAMES, Topo,
-    geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NO_POS, NONE, Parent, STREAM_COUNT,
+    STREAM_NAMES, Topo, geometry_pass, number_edges, rotated, s,
 };
 
 /// One decoded level on plain arrays.
@@ -159,7 +159,7 @@ pub fn decode_level(
         let pp = p.as_parent();
         // §5.3 / §5.4: subfaces, then created faces; predicted names per corner.
         let mut pred = vec![u64::MAX; nc];
-        let mut pos = vec![NONE; nc];
+        let mut pos = vec![NO_POS; nc];
         let rot_of = |st: &mut [Reader<'_>]| -> Result<u8, Error> {
             let r = st[s::ROTATIONS].u8()?;
             if r & !7 != 0 {
@@ -224,7 +224,7 @@ pub fn decode_level(
                     let cp = rotated(r, i);
                     pred[corner] = lattice::corner_key(sc[cp], k);
                     if out.parents[f] != NO_PARENT {
-                        pos[corner] = cp as u32;
+                        pos[corner] = cp as u8;
                     }
                     corner += 1;
                 }
@@ -262,7 +262,7 @@ pub fn decode_level(
                     for i in 0..4 {
                         let cp = rotated(r, i);
                         pred[corner] = layout[cp];
-                        pos[corner] = cp as u32;
+                        pos[corner] = cp as u8;
                         corner += 1;
                     }
                     out.offsets.push(corner as u32);
@@ -390,7 +390,7 @@ pub fn decode_level(
                     return Err(r.invalid("exception in a level without vertices"));
                 }
                 out.indices[c] = v as u32;
-                pos[c] = NONE;
+                pos[c] = NO_POS;
                 exc_left -= 1;
                 next_exc = if exc_left > 0 {
                     let gap = r.varint_max(nc as u64, "exception position gap")?;
@@ -426,7 +426,7 @@ pub fn decode_level(
         out.parents.shrink_to_fit();
         return finish(k, (mode, predictor), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
     }
-    let pos = vec![NONE; nc];
+    let pos = vec![NO_POS; nc];
     finish(k, (mode, predictor), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
 }
 
@@ -439,7 +439,7 @@ fn finish(
     st: &mut [Reader<'_>],
     mut out: PlainLevel,
     parent: Option<&PlainLevel>,
-    pos: &[u32],
+    pos: &[u8],
     parent_quads: &[([u32; 4], u8)],
     nv: usize,
 ) -> Result<PlainLevel, Error> {
@@ -477,7 +477,7 @@ fn finish(
             return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
         }
     } else {
-        let planes = [g.planes(nv, 4)?, g.planes(nv, 4)?, g.planes(nv, 4)?];
+        let planes = [g.plane_view(nv, 4)?, g.plane_view(nv, 4)?, g.plane_view(nv, 4)?];
         let mut q = vec![[0i64; 3]; nv];
         let pp = parent.map(PlainLevel::as_parent);
         let topo = Topo {
@@ -497,7 +497,7 @@ fn finish(
         geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {
             let mut out = [0i64; 3];
             for a in 0..3 {
-                out[a] = pred[a] + unzigzag(planes[a][v]);
+                out[a] = pred[a] + unzigzag(planes[a].get(v));
                 if out[a].abs() > GRID_LIMIT {
                     return Err(Error::Invalid {
                         place: Where::Payload(k),

@@ -7,8 +7,8 @@ use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NONE, Parent, STREAM_COUNT, Topo, best_rotation, geometry_pass, number_edges,
-    rotated, s,
+    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NO_POS, Parent, STREAM_COUNT, Topo, best_rotation, geometry_pass,
+    number_edges, rotated, s,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
@@ -108,7 +108,7 @@ pub fn encode_level(
         }
         level.q.clone_from(&input.q);
         level.exact.clone_from(&input.exact);
-        let pos = vec![NONE; input.indices.len()];
+        let pos = vec![NO_POS; input.indices.len()];
         st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], 0);
         return Ok(finish(st, (Mode::Base, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect()));
     };
@@ -174,7 +174,7 @@ pub fn encode_level(
             for i in 0..4 {
                 let cp = rotated(rot, i);
                 pred.push(lattice::corner_key(sc[cp], k));
-                pos.push(if is_sub { cp as u32 } else { NONE });
+                pos.push(if is_sub { cp as u8 } else { NO_POS });
                 corner_vertex.push(verts[i]);
             }
         } else if is_sub {
@@ -194,13 +194,13 @@ pub fn encode_level(
             for i in 0..4 {
                 let cp = rotated(rot, i);
                 pred.push(layout[cp]);
-                pos.push(cp as u32);
+                pos.push(cp as u8);
                 corner_vertex.push(verts[i]);
             }
         } else {
             for &v in verts {
                 pred.push(u64::MAX);
-                pos.push(NONE);
+                pos.push(NO_POS);
                 corner_vertex.push(v);
             }
         }
@@ -297,7 +297,7 @@ pub fn encode_level(
         }
         if vname[v as usize] != pred[c] {
             exceptions.push((c, nvx));
-            pos[c] = NONE;
+            pos[c] = NO_POS;
             continue;
         }
         let i = names.binary_search_by_key(&pred[c], |n| n.0).expect("name present");
@@ -409,7 +409,7 @@ fn geometry(
     bits: u32,
     exact: bool,
     parent: Option<&PlainLevel>,
-    pos: &[u32],
+    pos: &[u8],
     quads: &[([u32; 4], u8)],
     predictor: u8,
 ) -> Vec<u8> {

@@ -61,6 +61,8 @@ pub const BLOCK_FLAG_LATTICE: u8 = 1;
 pub const NO_PARENT: u32 = u32::MAX;
 /// "No prediction" in per-corner arrays.
 pub const NONE: u32 = u32::MAX;
+/// "No canonical position" in per-corner position arrays.
+pub const NO_POS: u8 = u8::MAX;
 
 /// The largest grid coordinate magnitude (spec §3.5).
 pub const GRID_LIMIT: i64 = 1 << 28;
@@ -191,9 +193,9 @@ pub struct Topo<'a> {
     pub parents: &'a [u32],
     /// Per face: quadrant (meaningful for subfaces).
     pub quadrants: &'a [u8],
-    /// Per corner: the canonical position it was predicted at (`0..4`), or [`NONE`] when it has no
+    /// Per corner: the canonical position it was predicted at (`0..4`), or [`NO_POS`] when it has no
     /// prediction or is an exception.
-    pub corner_pos: &'a [u32],
+    pub corner_pos: &'a [u8],
     /// Per vertex: its lattice corner (lattice mode).
     pub vertex_corners: Option<&'a [[u32; 3]]>,
     /// Lattice mode: parent slots and canonical quads.
@@ -258,7 +260,7 @@ pub fn geometry_pass<E>(
             }
             for c in offsets[f] as usize..offsets[f + 1] as usize {
                 let v = indices[c] as usize;
-                if topo.corner_pos[c] != NONE && ctx[v] == NONE {
+                if topo.corner_pos[c] != NO_POS && ctx[v] == NONE {
                     ctx[v] = c as u32;
                     ctx_face[v] = f as u32;
                     missing -= 1;

@@ -553,6 +553,9 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
             .then(|| Aabb { min: DVec3::from_array(h.cube_min), max: DVec3::from_array(h.cube_max) }),
     };
     let mut parent: Option<PlainLevel> = None;
+    // One decompression context for all levels (its buffers are reused).
+    let mut unzstd =
+        zstd::bulk::Decompressor::new().map_err(|x| Error::Zstd { level: 0, offset: 0, reason: x.to_string() })?;
     for k in 0..=last {
         let e = &pre.levels[k as usize];
         let stored = read_vec(&mut r, e.stored_size, e.offset, &format!("level {k}"))?;
@@ -574,11 +577,22 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
             Ok(None) => return Err(zerr("the frame does not state its content size".into())),
             Err(_) => return Err(zerr("not a zstd frame".into())),
         }
-        let payload = zstd::bulk::decompress(&stored, e.raw_size as usize).map_err(|x| zerr(x.to_string()))?;
+        let payload = unzstd.decompress(&stored, e.raw_size as usize).map_err(|x| zerr(x.to_string()))?;
         if payload.len() as u64 != e.raw_size {
             return Err(zerr(format!("decompressed to {} bytes, the level table says {}", payload.len(), e.raw_size)));
         }
-        let lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi)?;
+        let mut lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi)?;
+        if k == last {
+            // No level follows: the lattice arrays move instead of being copied.
+            let lattice = match (lv.slots.take(), lv.corners.take()) {
+                (Some(face_slots), Some(vertex_corners)) => Some(LevelLattice { face_slots, vertex_corners }),
+                _ => None,
+            };
+            let mut level = to_level(&lv, origin, h.step);
+            level.lattice = lattice;
+            out.levels.push(level);
+            break;
+        }
         out.levels.push(to_level(&lv, origin, h.step));
         parent = Some(lv);
     }
