@@ -518,9 +518,9 @@ fn finish(
 }
 
 /// The sorted distinct predicted names, and per corner the index of its name (`NONE` for corners
-/// without a prediction). LSD radix sort on 11-bit digits, skipping the digits where all names
-/// agree; (name - smallest name, corner) packed in one `u64` when both fit: linear in the corner
-/// count.
+/// without a prediction). Dense names go through a bitmap with ranks; others through an LSD radix
+/// sort on 11-bit digits, skipping the digits where all names agree, with (name - smallest name,
+/// corner) packed in one `u64` when both fit. Linear in the corner count either way.
 fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
     let (mut lo, mut hi) = (u64::MAX, 0u64);
     let mut n = 0usize;
@@ -534,6 +534,37 @@ fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
     let mut names = Vec::with_capacity(n / 2);
     let mut name_of = vec![NONE; pred.len()];
     if n == 0 {
+        return (names, name_of);
+    }
+    if (hi - lo) / 64 < n as u64 {
+        // Dense names (every generic level, lattice levels of a surface): a bitmap of the names
+        // and a rank per 64-bit word; no more memory than the sort would take.
+        let words = ((hi - lo) / 64 + 1) as usize;
+        let mut bits = vec![0u64; words];
+        for &p in pred {
+            if p != u64::MAX {
+                let x = p - lo;
+                bits[(x / 64) as usize] |= 1 << (x % 64);
+            }
+        }
+        let mut rank = Vec::with_capacity(words);
+        let mut acc = 0u32;
+        for (w, &b) in bits.iter().enumerate() {
+            rank.push(acc);
+            acc += b.count_ones();
+            let mut b = b;
+            while b != 0 {
+                names.push(lo + 64 * w as u64 + u64::from(b.trailing_zeros()));
+                b &= b - 1;
+            }
+        }
+        for (c, &p) in pred.iter().enumerate() {
+            if p != u64::MAX {
+                let x = p - lo;
+                let w = (x / 64) as usize;
+                name_of[c] = rank[w] + (bits[w] & ((1u64 << (x % 64)) - 1)).count_ones();
+            }
+        }
         return (names, name_of);
     }
     let kbits = 64 - (hi - lo).leading_zeros();
@@ -602,5 +633,37 @@ fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u3
         }
         std::mem::swap(items, tmp);
         shift += 11;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{NONE, sort_names};
+
+    fn naive(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
+        let mut names: Vec<u64> = pred.iter().copied().filter(|&p| p != u64::MAX).collect();
+        names.sort_unstable();
+        names.dedup();
+        let of = pred.iter().map(|p| names.binary_search(p).map_or(NONE, |i| i as u32)).collect();
+        (names, of)
+    }
+
+    #[test]
+    fn names_by_bitmap_and_by_sort_agree_with_a_plain_sort() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for (n, spread, base) in
+            [(0usize, 1u64, 0u64), (1, 1, 5), (500, 300, 0), (500, 1 << 40, 7), (300, u64::MAX - 9, 0)]
+        {
+            let pred: Vec<u64> =
+                (0..n).map(|_| if next() % 5 == 0 { u64::MAX } else { base + next() % spread.max(1) }).collect();
+            assert_eq!(sort_names(&pred), naive(&pred), "n {n} spread {spread}");
+        }
+        assert_eq!(sort_names(&[u64::MAX - 1, 0, 3, u64::MAX]), naive(&[u64::MAX - 1, 0, 3, u64::MAX]));
     }
 }
