@@ -5,8 +5,6 @@
 //! edges; components by union-find over vertices joined by faces. Everything is deterministic:
 //! no hash-map order reaches the report.
 
-use rustc_hash::FxHashMap;
-
 use octowrap_mesh::Mesh;
 
 use crate::report::{Code, Component, Counts, Element, Finding, MeshReport, Properties};
@@ -194,7 +192,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     let mut edges_at = vec![EdgeTally::default(); n];
     for lo in 0..n {
         let bucket = &mut sides[starts[lo] as usize..starts[lo + 1] as usize];
-        bucket.sort_unstable_by_key(|s| (s.other, !s.forward, s.corner_lo));
+        sort_sides(bucket);
         let mut i = 0;
         while i < bucket.len() {
             let hi = bucket[i].other;
@@ -343,6 +341,23 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     }
 }
 
+/// Sorts one vertex's sides by (other vertex, direction, corner): insertion sort for the usual
+/// handful, the standard sort beyond.
+fn sort_sides(bucket: &mut [Side]) {
+    let key = |s: &Side| (s.other, !s.forward, s.corner_lo);
+    if bucket.len() > 16 {
+        bucket.sort_unstable_by_key(key);
+        return;
+    }
+    for i in 1..bucket.len() {
+        let mut j = i;
+        while j > 0 && key(&bucket[j - 1]) > key(&bucket[j]) {
+            bucket.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
 fn has_repeat(face: &[u32]) -> bool {
     if face.len() <= 8 {
         face.iter().enumerate().any(|(i, a)| face[i + 1..].contains(a))
@@ -371,16 +386,26 @@ fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
 }
 
 fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
-    let mut first = FxHashMap::default();
-    first.reserve(mesh.vertex_count());
+    use std::hash::BuildHasher;
+    // A table of vertex indices hashed by position: 4 bytes an entry keeps it in cache.
+    let p = &mesh.vertices.positions;
+    let key = |i: u32| {
+        let v = p[i as usize];
+        [v.x + 0.0, v.y + 0.0, v.z + 0.0].map(f64::to_bits)
+    };
+    let hash = |k: [u64; 3]| rustc_hash::FxBuildHasher.hash_one(k);
+    let mut table = hashbrown::HashTable::<u32>::with_capacity(p.len());
     let mut dups = Vec::new();
-    for (i, p) in mesh.vertices.positions.iter().enumerate() {
-        if p.is_nan() {
+    for i in 0..p.len() as u32 {
+        if p[i as usize].is_nan() {
             continue;
         }
-        let key = [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
-        if first.insert(key, i).is_some() {
-            dups.push(i as u32);
+        let k = key(i);
+        match table.entry(hash(k), |&j| key(j) == k, |&j| hash(key(j))) {
+            hashbrown::hash_table::Entry::Occupied(_) => dups.push(i),
+            hashbrown::hash_table::Entry::Vacant(e) => {
+                e.insert(i);
+            }
         }
     }
     dups

@@ -1,13 +1,13 @@
-//! Union-find with path halving and union by size.
+//! Union-find with path halving. Roots are linked smaller index over larger, so the structure
+//! (and everything derived from it) is deterministic; one `u32` per element keeps it in cache.
 
 pub(crate) struct Dsu {
     parent: Vec<u32>,
-    size: Vec<u32>,
 }
 
 impl Dsu {
     pub(crate) fn new(n: usize) -> Self {
-        Self { parent: (0..n as u32).collect(), size: vec![1; n] }
+        Self { parent: (0..n as u32).collect() }
     }
 
     pub(crate) fn find(&mut self, mut x: usize) -> usize {
@@ -20,14 +20,10 @@ impl Dsu {
     }
 
     pub(crate) fn union(&mut self, a: usize, b: usize) {
-        let (mut a, mut b) = (self.find(a), self.find(b));
-        if a == b {
-            return;
+        let (a, b) = (self.find(a), self.find(b));
+        if a != b {
+            let (lo, hi) = (a.min(b), a.max(b));
+            self.parent[hi] = lo as u32;
         }
-        if self.size[a] < self.size[b] {
-            std::mem::swap(&mut a, &mut b);
-        }
-        self.parent[b] = a as u32;
-        self.size[a] += self.size[b];
     }
 }
