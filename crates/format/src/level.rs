@@ -215,13 +215,18 @@ pub fn bilinear_prediction(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8)
     bilinear_sum(pq, quad, slot, corner).map(|x| round_div(x, 4))
 }
 
-/// `S` of spec §6.3: four times the parent's bilinear point above `corner`.
+/// `S` of spec §6.3: four times the parent's bilinear point above `corner`. The slot's canonical
+/// corner 0 equals its voxel on both in-plane axes.
+#[inline]
 fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
+    bilinear_sum_of(&quad.map(|i| pq[i as usize]), slot, corner)
+}
+
+#[inline]
+fn bilinear_sum_of(p: &[[i64; 3]; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
     let (u, w) = lattice::plane_axes(slot.1);
-    let c0 = lattice::slot_corners(slot.0, slot.1)[0];
-    let a = (i64::from(corner[u]) - 2 * i64::from(c0[u])).clamp(0, 2);
-    let b = (i64::from(corner[w]) - 2 * i64::from(c0[w])).clamp(0, 2);
-    let p = quad.map(|i| pq[i as usize]);
+    let a = (i64::from(corner[u]) - 2 * i64::from(slot.0[u])).clamp(0, 2);
+    let b = (i64::from(corner[w]) - 2 * i64::from(slot.0[w])).clamp(0, 2);
     let wts = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
     let mut s = [0i64; 3];
     for i in 0..4 {
@@ -230,6 +235,25 @@ fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [
         }
     }
     s
+}
+
+/// `round_away` of spec §1.7 (halves away from zero), saturated to `i64`; NaN gives 0. Exact
+/// without a library call: below 2^52 the fraction `x - trunc(x)` is exact; above, `x` is an
+/// integer.
+#[inline]
+fn round_away(x: f64) -> i64 {
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
+        return x as i64;
+    }
+    let i = x as i64;
+    let frac = x - i as f64;
+    if frac >= 0.5 {
+        i + 1
+    } else if frac <= -0.5 {
+        i - 1
+    } else {
+        i
+    }
 }
 
 #[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.5 in one place, so both directions share it
@@ -414,8 +438,8 @@ pub fn lattice_prediction(
     level: u32,
     bits: u32,
 ) -> [i64; 3] {
-    let s = bilinear_sum(pq, quad, slot, corner);
     let p = quad.map(|i| pq[i as usize]);
+    let s = bilinear_sum_of(&p, slot, corner);
     let l = lattice::lattice_point(corner, level, bits);
     let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
     let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
@@ -427,12 +451,21 @@ pub fn lattice_prediction(
         return s.map(|x| round_div(x, 4));
     }
     let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
-    [0, 1, 2].map(|k| l[k].saturating_add((nf[k] * t).round() as i64))
+    [0, 1, 2].map(|k| l[k].saturating_add(round_away(nf[k] * t)))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::round_div;
+    use super::{round_away, round_div};
+
+    #[test]
+    fn round_away_matches_the_library() {
+        let xs = [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, 0.499_999_999_999_999_94, -0.499_999_999_999_999_94, 1e15 + 0.5];
+        let more = [4_503_599_627_370_495.5, 9.3e18, -9.3e18, 1e300, -1e300, f64::NAN, f64::INFINITY, 123.456, -7.7];
+        for &x in xs.iter().chain(&more) {
+            assert_eq!(round_away(x), x.round() as i64, "{x}");
+        }
+    }
 
     #[test]
     fn round_div_matches_the_wide_formula() {
