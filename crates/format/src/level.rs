@@ -320,7 +320,7 @@ pub fn geometry_pass<E>(
         // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
         // not decoded yet and for vertices without a context, so the sums below need no test.
         // |bias| <= 2^29 + 2^28 fits i32.
-        let mut bias = vec![[0i32; 3]; nv];
+        let mut bias = vec![[0i32; 4]; nv];
         let lattice_mode = topo.mode == Mode::Lattice;
         for v in 0..nv {
             let c = ctx[v];
@@ -361,16 +361,26 @@ pub fn geometry_pass<E>(
             };
             // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
             let base = clamp(pred);
-            let mut sum = [0i64; 3];
-            let mut count = 0i64;
-            for &u in &nbr[range(v)] {
-                let u = u as usize;
-                let b = bias[u];
-                for k in 0..3 {
-                    sum[k] = sum[k].saturating_add(i64::from(b[k]));
+            // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours.
+            let mut sum = [0i64; 4];
+            let near = &nbr[range(v)];
+            if near.len() < 1 << 30 {
+                // At most 2^30 terms of magnitude below 2^30: no sum can saturate.
+                for &u in near {
+                    let b = bias[u as usize];
+                    for k in 0..4 {
+                        sum[k] += i64::from(b[k]);
+                    }
                 }
-                count += i64::from(u < v && ctx[u] != NONE);
+            } else {
+                for &u in near {
+                    let b = bias[u as usize];
+                    for k in 0..4 {
+                        sum[k] = sum[k].saturating_add(i64::from(b[k]));
+                    }
+                }
             }
+            let count = sum[3];
             let mut pred = base;
             if count > 0 {
                 for k in 0..3 {
@@ -379,7 +389,7 @@ pub fn geometry_pass<E>(
             }
             let qv = step(v, clamp(pred))?;
             q[v] = qv;
-            bias[v] = [0, 1, 2].map(|k| (qv[k] - base[k]) as i32);
+            bias[v] = [(qv[0] - base[0]) as i32, (qv[1] - base[1]) as i32, (qv[2] - base[2]) as i32, 1];
         }
     }
     if missing == 0 {
@@ -460,7 +470,8 @@ mod tests {
 
     #[test]
     fn round_away_matches_the_library() {
-        let xs = [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, 0.499_999_999_999_999_94, -0.499_999_999_999_999_94, 1e15 + 0.5];
+        let xs =
+            [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, 0.499_999_999_999_999_94, -0.499_999_999_999_999_94, 1e15 + 0.5];
         let more = [4_503_599_627_370_495.5, 9.3e18, -9.3e18, 1e300, -1e300, f64::NAN, f64::INFINITY, 123.456, -7.7];
         for &x in xs.iter().chain(&more) {
             assert_eq!(round_away(x), x.round() as i64, "{x}");
