@@ -413,8 +413,9 @@ pub fn decode_level(
         }
         if mode == Mode::Lattice {
             let mut vc = Vec::with_capacity(nv);
+            let keys = lattice::CornerKeys::new(k);
             for (i, &nm) in names.iter().enumerate() {
-                let c = lattice::corner_from_key(nm, k).expect("lattice names checked");
+                let c = keys.corner(nm); // valid: predicted from slots, or extras checked above
                 for _ in 0..count[i] {
                     vc.push(c);
                 }

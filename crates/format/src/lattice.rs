@@ -113,6 +113,36 @@ pub fn corner_from_key(key: u64, depth: u32) -> Option<[u32; 3]> {
     Some([(key % m) as u32, ((key / m) % m) as u32, (key / (m * m)) as u32])
 }
 
+/// [`corner_from_key`] for many valid keys of one depth: below 2^32, divisions by `2^k + 1` as
+/// multiplications by a 64-bit reciprocal (exact for 32-bit operands, Lemire et al. 2019).
+pub struct CornerKeys {
+    m: u64,
+    recip: Option<u64>,
+}
+
+impl CornerKeys {
+    /// Corner keys of depth `depth`.
+    pub fn new(depth: u32) -> Self {
+        let m = (1u64 << depth) + 1;
+        Self { m, recip: (m * m * m <= 1 << 32).then(|| u64::MAX / m + 1) }
+    }
+
+    /// The lattice corner of a key that is valid at this depth.
+    #[inline]
+    pub fn corner(&self, key: u64) -> [u32; 3] {
+        let m = self.m;
+        match self.recip {
+            Some(r) if key < 1 << 32 => {
+                let div = |n: u64| ((u128::from(r) * u128::from(n)) >> 64) as u64;
+                let q1 = div(key);
+                let z = div(q1);
+                [(key - q1 * m) as u32, (q1 - z * m) as u32, z as u32]
+            }
+            _ => [(key % m) as u32, ((key / m) % m) as u32, (key / (m * m)) as u32],
+        }
+    }
+}
+
 /// Whether a voxel lies in `[0, 2^k)^3` and a side in `0..6`.
 pub fn slot_in_range(voxel: [u32; 3], side: u8, depth: u32) -> bool {
     side < 6 && voxel.iter().all(|&c| u64::from(c) < (1u64 << depth))
@@ -185,6 +215,20 @@ mod tests {
         }
         assert_eq!(slot_from_morton_key(u64::MAX, 20), None);
         assert_eq!(corner_from_key(125, 2), None);
+        for depth in 0..=6u32 {
+            let ck = CornerKeys::new(depth);
+            let m = (1u64 << depth) + 1;
+            assert!((0..m * m * m).all(|key| Some(ck.corner(key)) == corner_from_key(key, depth)));
+        }
+        let ck = CornerKeys::new(10);
+        assert!((0..1025u64 * 1025 * 1025).step_by(9973).all(|key| Some(ck.corner(key)) == corner_from_key(key, 10)));
+        for depth in [0u32, 1, 3, 7, 10, 11, 20] {
+            let ck = CornerKeys::new(depth);
+            let m = (1u64 << depth) + 1;
+            for key in [0, 1, m - 1, m, m * m - 1, m * m, (m * m * m / 2 + 7).min(m * m * m - 1), m * m * m - 1] {
+                assert_eq!(Some(ck.corner(key)), corner_from_key(key, depth), "depth {depth} key {key}");
+            }
+        }
     }
 
     #[test]
