@@ -180,7 +180,8 @@ pub fn child_slot(voxel: [u32; 3], side: u8, corner: [u32; 3], inner: bool) -> O
 /// Grid coordinates of lattice corner `c` at depth `k` when the grid has `2^bits` steps across the
 /// cube: `floor(c * 2^bits / 2^k)` per axis.
 pub fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
-    c.map(|x| ((u64::from(x) << bits) >> depth) as i64)
+    let at = |x: u32| ((u64::from(x) << bits) >> depth) as i64;
+    [at(c[0]), at(c[1]), at(c[2])]
 }
 
 #[cfg(test)]

@@ -212,14 +212,14 @@ pub const PREDICTOR_BILINEAR: u8 = 1;
 
 /// The bilinear point of the parent face above lattice corner `corner` (spec §6.3, predictor 1).
 pub fn bilinear_prediction(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
-    bilinear_sum(pq, quad, slot, corner).map(|x| round_div(x, 4))
+    map3(bilinear_sum(pq, quad, slot, corner), |x| round_div(x, 4))
 }
 
 /// `S` of spec §6.3: four times the parent's bilinear point above `corner`. The slot's canonical
 /// corner 0 equals its voxel on both in-plane axes.
 #[inline]
 fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
-    bilinear_sum_of(&quad.map(|i| pq[i as usize]), slot, corner)
+    bilinear_sum_of(&quad_points(pq, quad), slot, corner)
 }
 
 #[inline]
@@ -343,7 +343,7 @@ pub fn geometry_pass<E>(
                 let n = face.len();
                 let qd = usize::from(topo.quadrants[f]);
                 let at = |i: usize| p.q[face[i % n] as usize];
-                let two = |x: [i64; 3], y: [i64; 3]| [0, 1, 2].map(|a| round_div(x[a] + y[a], 2));
+                let two = |x: [i64; 3], y: [i64; 3]| map3([0, 1, 2], |a| round_div(x[a] + y[a], 2));
                 match topo.corner_pos[c as usize] {
                     0 => at(qd),
                     1 => two(at(qd), at(qd + 1)),
@@ -354,7 +354,7 @@ pub fn geometry_pass<E>(
                                 sum[a] += p.q[u as usize][a];
                             }
                         }
-                        sum.map(|s| round_div(s, n as i64))
+                        map3(sum, |s| round_div(s, n as i64))
                     }
                     _ => two(at(qd + n - 1), at(qd)),
                 }
@@ -434,8 +434,20 @@ pub fn geometry_pass<E>(
     Ok(())
 }
 
+/// `[f(a[0]), f(a[1]), f(a[2])]`: inlined where std's array `map` was not, in the hot loops.
+#[inline]
+pub(crate) fn map3<T: Copy, U>(a: [T; 3], f: impl Fn(T) -> U) -> [U; 3] {
+    [f(a[0]), f(a[1]), f(a[2])]
+}
+
+/// The parent grid points of a canonical quad.
+#[inline]
+fn quad_points(pq: &[[i64; 3]], quad: [u32; 4]) -> [[i64; 3]; 4] {
+    [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]]
+}
+
 fn clamp(p: [i64; 3]) -> [i64; 3] {
-    p.map(|x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
+    map3(p, |x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
 }
 
 /// The lattice predictor of spec §6.3: the lattice point moved along the parent face's normal to
@@ -448,20 +460,20 @@ pub fn lattice_prediction(
     level: u32,
     bits: u32,
 ) -> [i64; 3] {
-    let p = quad.map(|i| pq[i as usize]);
+    let p = quad_points(pq, quad);
     let s = bilinear_sum_of(&p, slot, corner);
     let l = lattice::lattice_point(corner, level, bits);
     let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
     let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
     let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-    let nf = n.map(|x| x as f64);
+    let nf = map3(n, |x| x as f64);
     let d = [(s[0] - 4 * l[0]) as f64, (s[1] - 4 * l[1]) as f64, (s[2] - 4 * l[2]) as f64];
     let nn = nf[0] * nf[0] + nf[1] * nf[1] + nf[2] * nf[2];
     if nn == 0.0 {
-        return s.map(|x| round_div(x, 4));
+        return map3(s, |x| round_div(x, 4));
     }
     let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
-    [0, 1, 2].map(|k| l[k].saturating_add(round_away(nf[k] * t)))
+    map3([0, 1, 2], |k| l[k].saturating_add(round_away(nf[k] * t)))
 }
 
 #[cfg(test)]
