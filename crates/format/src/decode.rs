@@ -423,7 +423,9 @@ pub fn decode_level(
             out.corners = Some(vc);
             out.slots = Some(slots);
         }
-        // Geometry context positions exclude exceptions; pass them on.
+        // Geometry context positions exclude exceptions; pass them on. The topology temporaries
+        // go first, so that the geometry pass can reuse their memory (fewer fresh pages).
+        drop((pred, name_of, names, count, first));
         out.parents.shrink_to_fit();
         return finish(k, (mode, predictor), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
     }
