@@ -100,6 +100,7 @@ use std::time::{Duration, Instant};
 
 use octowrap_geom::{DVec3, morton};
 use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, PointCloud};
+use rayon::prelude::*;
 
 use crate::irregular::Decisions;
 use crate::keymap::KeyMap;
@@ -406,15 +407,17 @@ pub fn reconstruct_with(
         trusted = finest;
     }
     // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, levels
-    // k - 1 and k - 2. Nothing deeper is kept (or built).
+    // k - 1 and k - 2. Those levels are indexed; past the density limit the finest level is also
+    // built, unindexed, to split its parents' points for the ball queries of the mapping.
     let keep = (trusted + 1).max(finest.saturating_sub(1)).min(MAX_LEVEL);
-    while tree.depth() > keep {
+    let build = if finest > trusted { keep.max(finest).min(MAX_LEVEL) } else { keep };
+    while tree.depth() > build {
         tree.levels.pop();
         part_times.pop();
     }
-    while tree.depth() < keep {
+    while tree.depth() < build {
         let t = Instant::now();
-        tree.push_level();
+        tree.push_level_indexed(tree.depth() < keep);
         part_times.push(t.elapsed());
     }
     let t = Instant::now();
@@ -450,7 +453,7 @@ pub fn reconstruct_with(
         dropped: 0,
         timings: StageTimings { partitioning: part_times[0], ..StageTimings::default() },
     });
-    levels.push(prev.take_level(&tree));
+    levels.push(prev.take_level(&tree, false));
 
     for j in 1..=finest {
         let here = tree.levels.get(j as usize);
@@ -540,6 +543,8 @@ pub fn reconstruct_with(
             }
         };
         let mut next = next;
+        // The level above is no longer needed (its output level is already built).
+        drop(std::mem::take(&mut prev));
         // §3.6: vertex mapping.
         stage(Stage::Mapping);
         let t = Instant::now();
@@ -561,10 +566,11 @@ pub fn reconstruct_with(
         let t = Instant::now();
         let passes = if j >= opts.relax_from_level { opts.relax_passes } else { 0 };
         relax::relax(&mut next.positions, &mapped.planes, &next.quads, passes);
+        drop(mapped.planes);
         rep.timings.relaxation = t.elapsed();
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();
-        levels.push(next.take_level(&tree));
+        levels.push(next.take_level(&tree, j == finest));
         reports.push(rep);
         prev = next;
     }
@@ -573,6 +579,7 @@ pub fn reconstruct_with(
 }
 
 /// One level while it is being built (local coordinates).
+#[derive(Default)]
 struct LevelState {
     slots: Vec<u64>,
     quads: Vec<[u32; 4]>,
@@ -582,13 +589,21 @@ struct LevelState {
 }
 
 impl LevelState {
-    /// The output level; moves the origins out (the next level does not need them).
-    fn take_level(&mut self, tree: &Octree) -> Level {
-        let world: Vec<DVec3> = self.positions.iter().map(|&p| tree.frame.to_world(p)).collect();
+    /// The output level; moves the origins out (the next level does not need them), and with
+    /// `last` also the positions and corners (converted in place, no copies at the finest level).
+    fn take_level(&mut self, tree: &Octree, last: bool) -> Level {
+        let world: Vec<DVec3> = if last {
+            let mut p = std::mem::take(&mut self.positions);
+            p.par_iter_mut().for_each(|p| *p = tree.frame.to_world(*p));
+            p
+        } else {
+            self.positions.par_iter().map(|&p| tree.frame.to_world(p)).collect()
+        };
+        let vertex_corners = if last { std::mem::take(&mut self.corners) } else { self.corners.clone() };
         let mesh = Mesh { vertices: PointCloud::from_positions(world), faces: FaceList::from_quads(&self.quads) };
         let face_slots = self
             .slots
-            .iter()
+            .par_iter()
             .map(|&s| {
                 let (code, side) = unslot(s);
                 (morton::decode(code), side)
@@ -597,7 +612,7 @@ impl LevelState {
         Level {
             mesh,
             origins: std::mem::take(&mut self.origins),
-            lattice: Some(LevelLattice { face_slots, vertex_corners: self.corners.clone() }),
+            lattice: Some(LevelLattice { face_slots, vertex_corners }),
         }
     }
 }

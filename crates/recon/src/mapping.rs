@@ -72,6 +72,32 @@ fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &
     }
 }
 
+/// How far a point may lie outside its voxel's box in local units: the codes quantise at 2^-21
+/// of the cube, the `f32` positions round at 2^-25.
+const BOX_MARGIN: f64 = 1e-6;
+
+/// Like [`gather`], but visits only the children of `cell` (when the next level is built) whose
+/// box comes within `radius` of `x`. The skipped points would all fail the distance test, and the
+/// others are added in the same order, so the sums are identical.
+#[inline]
+fn gather_near(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &mut Moments) {
+    let fine = match tree.levels.get(cells.level as usize + 1) {
+        Some(fine) if !cells.first_child.is_empty() => fine,
+        _ => return gather(tree, cells, cell, x, radius, m),
+    };
+    let h = fine.voxel();
+    let r2 = radius * radius;
+    for c in cells.first_child[cell] as usize..cells.first_child[cell + 1] as usize {
+        let v = morton::decode(fine.keys[c]);
+        let lo = DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])) * h - BOX_MARGIN;
+        let hi = lo + (h + 2.0 * BOX_MARGIN);
+        let d = (lo - x).max(x - hi).max(DVec3::ZERO);
+        if d.length_squared() < r2 {
+            gather(tree, fine, c, x, radius, m);
+        }
+    }
+}
+
 /// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
 fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
     match crate::fit::plane(m) {
@@ -145,7 +171,7 @@ pub(crate) fn map_wrapped(
                 }
                 _ => {
                     for &c in &w {
-                        gather(tree, cells, c, x, 0.5 * l, &mut m);
+                        gather_near(tree, cells, c, x, 0.5 * l, &mut m);
                     }
                 }
             }
@@ -192,10 +218,10 @@ fn quadric_fit(points: &[DVec3], h: f64) -> Option<(DVec3, DVec3)> {
         return None;
     }
     let inv = 1.0 / (h * h);
-    let weight = |p: &DVec3| (-p.length_squared() * inv).exp();
+    let weights: Vec<f64> = points.iter().map(|p| (-p.length_squared() * inv).exp()).collect();
     let mut m = Moments::default();
-    for p in points {
-        m.add_weighted(*p, weight(p));
+    for (p, &w) in points.iter().zip(&weights) {
+        m.add_weighted(*p, w);
     }
     let plane = crate::fit::plane(&m)?;
     let (c, n) = (plane.point, plane.normal);
@@ -203,8 +229,7 @@ fn quadric_fit(points: &[DVec3], h: f64) -> Option<(DVec3, DVec3)> {
     let v = n.cross(u);
     let mut ata = [[0.0f64; 6]; 6];
     let mut atz = [0.0f64; 6];
-    for p in points {
-        let w = weight(p);
+    for (p, &w) in points.iter().zip(&weights) {
         let d = *p - c;
         let (a, b, z) = (d.dot(u) / h, d.dot(v) / h, d.dot(n));
         let phi = [1.0, a, b, a * a, a * b, b * b];
@@ -275,7 +300,7 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
                     continue;
                 }
                 if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
-                    gather(tree, cells, i, x, radius, m);
+                    gather_near(tree, cells, i, x, radius, m);
                 }
             }
         }

@@ -64,29 +64,46 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
             i += 1;
         }
     }
-    let mut out = Subdivided { quads: Vec::with_capacity(4 * quads.len()), ..Subdivided::default() };
-    for (f, q) in quads.iter().enumerate() {
-        let centre = out_corners.len() as u32;
+    drop(edges);
+    // Face points, then four children per face (in parallel: the face point of face `f` is
+    // vertex `base + f`, so the numbering does not depend on the order of work).
+    let base = out_corners.len() as u32;
+    out_corners.par_extend(quads.par_iter().map(|q| {
         let c: [[u32; 3]; 4] = q.map(|v| corners[v as usize]);
-        out_corners.push(std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2));
-        out_pos.push(q.iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25);
-        let (code, d) = unslot(slots[f]);
-        let pc = morton::decode(code);
-        let a = axis(d);
-        let (b, cax) = plane_axes(a);
-        for k in 0..4 {
-            let e_next = edge_vertex[4 * f + k];
-            let e_prev = edge_vertex[4 * f + (k + 3) % 4];
-            out.quads.push([q[k], e_next, centre, e_prev]);
-            let o = corner_offset(d, k);
-            let mut child = pc.map(|x| 2 * x);
-            child[b] += o[0];
-            child[cax] += o[1];
-            child[a] += u32::from(sign(d) > 0);
-            out.slots.push(slot(morton::encode(child[0], child[1], child[2]), d));
-            out.origins.push(FaceOrigin::Subface { parent: f as u32, quadrant: Quadrant(k as u8) });
-        }
-    }
+        std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2)
+    }));
+    out_pos.par_extend(quads.par_iter().map(|q| q.iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25));
+    let mut quads_out: Vec<[u32; 4]> = quads
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(f, q)| {
+            let centre = base + f as u32;
+            let ev = &edge_vertex[4 * f..4 * f + 4];
+            (0..4).map(move |k| [q[k], ev[k], centre, ev[(k + 3) % 4]])
+        })
+        .collect();
+    drop(edge_vertex);
+    let slots_out: Vec<u64> = slots
+        .par_iter()
+        .flat_map_iter(|&s| {
+            let (code, d) = unslot(s);
+            let pc = morton::decode(code);
+            let a = axis(d);
+            let (b, cax) = plane_axes(a);
+            (0..4).map(move |k| {
+                let o = corner_offset(d, k);
+                let mut child = pc.map(|x| 2 * x);
+                child[b] += o[0];
+                child[cax] += o[1];
+                child[a] += u32::from(sign(d) > 0);
+                slot(morton::encode(child[0], child[1], child[2]), d)
+            })
+        })
+        .collect();
+    let origins: Vec<FaceOrigin> = (0..4 * quads.len())
+        .into_par_iter()
+        .map(|i| FaceOrigin::Subface { parent: (i / 4) as u32, quadrant: Quadrant((i % 4) as u8) })
+        .collect();
     // Number the vertices along the Morton curve of their lattice corners, so that the mapping,
     // which visits them in order, queries nearby voxels one after the other.
     let mut order: Vec<(u64, u32)> =
@@ -96,8 +113,12 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
     for (new, &(_, old)) in order.iter().enumerate() {
         rank[old as usize] = new as u32;
     }
-    out.corners = order.iter().map(|&(_, old)| out_corners[old as usize]).collect();
-    out.positions = order.iter().map(|&(_, old)| out_pos[old as usize]).collect();
-    out.quads.par_iter_mut().for_each(|q| *q = q.map(|v| rank[v as usize]));
-    out
+    // Each copy in turn, its source freed at once (this is the peak of a subdivided level).
+    let new_corners: Vec<[u32; 3]> = order.par_iter().map(|&(_, old)| out_corners[old as usize]).collect();
+    drop(out_corners);
+    let new_positions: Vec<DVec3> = order.par_iter().map(|&(_, old)| out_pos[old as usize]).collect();
+    drop(out_pos);
+    drop(order);
+    quads_out.par_iter_mut().for_each(|q| *q = q.map(|v| rank[v as usize]));
+    Subdivided { quads: quads_out, corners: new_corners, slots: slots_out, origins, positions: new_positions }
 }
