@@ -91,22 +91,70 @@ pub fn round_div(a: i64, b: i64) -> i64 {
 }
 /// Edge numbering of a polygon mesh in order of first appearance (spec §5.4): for every face
 /// corner, the id of the edge from it to the next corner, and the number of edges.
+///
+/// No hashing: corners are bucketed by the smaller vertex of their edge (counting sort, corner
+/// order kept), each corner finds the first corner of its bucket with the same larger vertex (a
+/// scan in small buckets, a sort in large ones), and ids follow in corner order.
 pub fn number_edges(offsets: &[u32], indices: &[u32]) -> (Vec<u32>, u32) {
-    let mut ids = std::collections::HashMap::with_capacity(indices.len() / 2);
-    let mut edge_of_corner = vec![0u32; indices.len()];
-    let mut next = 0u32;
+    let nc = indices.len();
+    let nv = indices.iter().map(|&v| v as usize + 1).max().unwrap_or(0);
+    // The other end of every corner's edge.
+    let mut other = vec![0u32; nc];
     for w in offsets.windows(2) {
         let (a, b) = (w[0] as usize, w[1] as usize);
-        let n = b - a;
-        for i in 0..n {
-            let u = indices[a + i];
-            let v = indices[a + (i + 1) % n];
-            let key = (u.min(v), u.max(v));
-            let id = *ids.entry(key).or_insert_with(|| {
-                next += 1;
-                next - 1
-            });
-            edge_of_corner[a + i] = id;
+        for c in a..b {
+            other[c] = indices[if c + 1 == b { a } else { c + 1 }];
+        }
+    }
+    let mut start = vec![0u32; nv + 1];
+    for c in 0..nc {
+        start[indices[c].min(other[c]) as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut bucket = vec![0u32; nc];
+    let mut fill = start.clone();
+    for c in 0..nc {
+        let lo = indices[c].min(other[c]) as usize;
+        bucket[fill[lo] as usize] = c as u32;
+        fill[lo] += 1;
+    }
+    drop(fill);
+    // first[c]: the first corner (in corner order) with the same unordered edge.
+    let mut first = vec![0u32; nc];
+    let hi = |c: u32| indices[c as usize].max(other[c as usize]);
+    let mut scratch: Vec<(u32, u32)> = Vec::new();
+    for w in start.windows(2) {
+        let group = &bucket[w[0] as usize..w[1] as usize];
+        if group.len() <= 16 {
+            for (i, &c) in group.iter().enumerate() {
+                let h = hi(c);
+                let f = group[..i].iter().find(|&&d| hi(d) == h).copied().unwrap_or(c);
+                first[c as usize] = f;
+            }
+        } else {
+            scratch.clear();
+            scratch.extend(group.iter().map(|&c| (hi(c), c)));
+            scratch.sort_unstable();
+            let mut lead: Option<(u32, u32)> = None;
+            for &(h, c) in &scratch {
+                if lead.is_none_or(|l| l.0 != h) {
+                    lead = Some((h, c));
+                }
+                first[c as usize] = lead.map_or(c, |l| l.1);
+            }
+        }
+    }
+    let mut edge_of_corner = vec![0u32; nc];
+    let mut next = 0u32;
+    for c in 0..nc {
+        let f = first[c] as usize;
+        if f == c {
+            edge_of_corner[c] = next;
+            next += 1;
+        } else {
+            edge_of_corner[c] = edge_of_corner[f];
         }
     }
     (edge_of_corner, next)
@@ -478,7 +526,44 @@ pub fn lattice_prediction(
 
 #[cfg(test)]
 mod tests {
-    use super::{round_away, round_div};
+    use super::{number_edges, round_away, round_div};
+
+    #[test]
+    fn edges_numbered_like_a_hash_map_would() {
+        let reference = |offsets: &[u32], indices: &[u32]| {
+            let mut ids = std::collections::HashMap::new();
+            let mut out = Vec::new();
+            for w in offsets.windows(2) {
+                let (a, b) = (w[0] as usize, w[1] as usize);
+                for c in a..b {
+                    let (u, v) = (indices[c], indices[if c + 1 == b { a } else { c + 1 }]);
+                    let n = ids.len() as u32;
+                    out.push(*ids.entry((u.min(v), u.max(v))).or_insert(n));
+                }
+            }
+            let n = ids.len() as u32;
+            (out, n)
+        };
+        let mut x = 12_345u64;
+        let mut next = |m: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            ((x >> 33) % m) as u32
+        };
+        // Random polygons over few vertices (big buckets, repeated and degenerate edges) and many.
+        for nv in [3u64, 5, 40, 1000] {
+            let mut offsets = vec![0u32];
+            let mut indices = Vec::new();
+            for _ in 0..300 {
+                let n = 3 + next(4);
+                for _ in 0..n {
+                    indices.push(next(nv));
+                }
+                offsets.push(indices.len() as u32);
+            }
+            assert_eq!(number_edges(&offsets, &indices), reference(&offsets, &indices), "nv {nv}");
+        }
+        assert_eq!(number_edges(&[0], &[]), (vec![], 0));
+    }
 
     #[test]
     fn round_away_matches_the_library() {
