@@ -87,9 +87,12 @@ fn gather_near(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64,
     };
     let h = fine.voxel();
     let r2 = radius * radius;
+    // The parent decoded once; a child's offset is the low three bits of its code (x, y, z).
+    let v = morton::decode(cells.keys[cell]);
+    let base = DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])) * (2.0 * h) - BOX_MARGIN;
     for c in cells.first_child[cell] as usize..cells.first_child[cell + 1] as usize {
-        let v = morton::decode(fine.keys[c]);
-        let lo = DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])) * h - BOX_MARGIN;
+        let o = fine.keys[c] & 7;
+        let lo = base + DVec3::new((o & 1) as f64, ((o >> 1) & 1) as f64, (o >> 2) as f64) * h;
         let hi = lo + (h + 2.0 * BOX_MARGIN);
         let d = (lo - x).max(x - hi).max(DVec3::ZERO);
         if d.length_squared() < r2 {
