@@ -548,25 +548,24 @@ pub fn reconstruct_with(
         // §3.6: vertex mapping.
         stage(Stage::Mapping);
         let t = Instant::now();
-        let mapped = if rep.kind == LevelKind::Wrapped {
+        let planes = if rep.kind == LevelKind::Wrapped {
             let cells = &tree.levels[j as usize];
             let face_cells: Vec<u32> = next
                 .slots
                 .iter()
                 .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
                 .collect();
-            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &next.positions, opts.quadric_mapping)
+            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &mut next.positions, opts.quadric_mapping)
         } else {
-            mapping::map_free(&tree, j, &next.positions)
+            mapping::map_free(&tree, j, &mut next.positions)
         };
-        next.positions = mapped.positions;
         rep.timings.mapping = t.elapsed();
         // §3.6.1: relaxation.
         stage(Stage::Relaxation);
         let t = Instant::now();
         let passes = if j >= opts.relax_from_level { opts.relax_passes } else { 0 };
-        relax::relax(&mut next.positions, &mapped.planes, &next.quads, passes);
-        drop(mapped.planes);
+        relax::relax(&mut next.positions, &planes, &next.quads, passes);
+        drop(planes);
         rep.timings.relaxation = t.elapsed();
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();

@@ -51,15 +51,6 @@ impl TangentPlane {
     }
 }
 
-/// Positions and planes of a mapped level.
-#[derive(Debug, Default)]
-pub(crate) struct Mapped {
-    /// Local positions.
-    pub positions: Vec<DVec3>,
-    /// The plane each vertex was projected on, if it had enough points.
-    pub planes: Vec<Option<TangentPlane>>,
-}
-
 /// Sums the points of `cell` within `radius` of `x`, relative to `x`.
 #[inline]
 fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &mut Moments) {
@@ -116,97 +107,102 @@ pub(crate) fn map_wrapped(
     cells: &Cells,
     quads: &[[u32; 4]],
     face_cells: &[u32],
-    start: &[DVec3],
+    positions: &mut [DVec3],
     quadric: bool,
-) -> Mapped {
+) -> Vec<Option<TangentPlane>> {
+    let n = positions.len();
     // Vertex -> voxels of its fan, as a sorted list of pairs.
     let mut pairs: Vec<(u32, u32)> =
         quads.iter().zip(face_cells).flat_map(|(q, &c)| q.iter().map(move |&v| (v, c))).collect();
     pairs.par_sort_unstable();
     pairs.dedup();
-    let mut first = vec![0u32; start.len() + 1];
+    let mut first = vec![0u32; n + 1];
     for &(v, _) in &pairs {
         first[v as usize + 1] += 1;
     }
-    for i in 0..start.len() {
+    for i in 0..n {
         first[i + 1] += first[i];
     }
     let l = cells.voxel();
     let level = cells.level;
-    let (positions, planes): (Vec<DVec3>, Vec<Option<TangentPlane>>) = (0..start.len())
-        .into_par_iter()
-        .map(|v| {
-            let x = start[v];
-            let w: Vec<usize> =
-                pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
-            if quadric {
-                // The points of W within one edge, for the weighted quadric.
-                let mut near: Vec<DVec3> = Vec::new();
-                // Big voxels hold many points: a fixed stride keeps about 256, plenty for six unknowns.
-                let total: usize = w.iter().map(|&c| cells.range(c).len()).sum();
-                let stride = (total / 256).max(1);
+    let one = |v: usize, x: DVec3| -> (DVec3, Option<TangentPlane>) {
+        let w: Vec<usize> = pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
+        if quadric {
+            // The points of W within one edge, for the weighted quadric.
+            let mut near: Vec<DVec3> = Vec::new();
+            // Big voxels hold many points: a fixed stride keeps about 256, plenty for six unknowns.
+            let total: usize = w.iter().map(|&c| cells.range(c).len()).sum();
+            let stride = (total / 256).max(1);
+            for &c in &w {
+                for p in tree.points[cells.range(c)].iter().step_by(stride) {
+                    let d = p.as_dvec3() - x;
+                    if d.length_squared() < l * l {
+                        near.push(d);
+                    }
+                }
+            }
+            if let Some((offset, normal)) = quadric_fit(&near, 0.5 * l) {
+                return (x + offset, Some(TangentPlane::new(x + offset, normal)));
+            }
+        }
+        let mut m = Moments::default();
+        // The points within l/2 of a lattice corner lie in the children touching it.
+        let corner = (x / l).round();
+        let exact = (x / l - corner).abs().max_element() < 1e-9;
+        match (tree.levels.get(level as usize + 1), exact) {
+            (Some(children), true) => {
+                let k = [corner.x as u32, corner.y as u32, corner.z as u32];
                 for &c in &w {
-                    for p in tree.points[cells.range(c)].iter().step_by(stride) {
-                        let d = p.as_dvec3() - x;
-                        if d.length_squared() < l * l {
-                            near.push(d);
-                        }
-                    }
-                }
-                if let Some((offset, normal)) = quadric_fit(&near, 0.5 * l) {
-                    return (x + offset, Some(TangentPlane::new(x + offset, normal)));
-                }
-            }
-            let mut m = Moments::default();
-            // The points within l/2 of a lattice corner lie in the children touching it.
-            let corner = (x / l).round();
-            let exact = (x / l - corner).abs().max_element() < 1e-9;
-            match (tree.levels.get(level as usize + 1), exact) {
-                (Some(children), true) => {
-                    let k = [corner.x as u32, corner.y as u32, corner.z as u32];
-                    for &c in &w {
-                        let v = morton::decode(cells.keys[c]);
-                        let child = morton::encode(v[0] + k[0], v[1] + k[1], v[2] + k[2]);
-                        if let Some(ci) = children.find(child) {
-                            gather(tree, children, ci, x, 0.5 * l, &mut m);
-                        }
-                    }
-                }
-                _ => {
-                    for &c in &w {
-                        gather_near(tree, cells, c, x, 0.5 * l, &mut m);
+                    let v = morton::decode(cells.keys[c]);
+                    let child = morton::encode(v[0] + k[0], v[1] + k[1], v[2] + k[2]);
+                    if let Some(ci) = children.find(child) {
+                        gather(tree, children, ci, x, 0.5 * l, &mut m);
                     }
                 }
             }
-            if m.count < 3.0 {
-                // W' within radius l: the ball lies in the 2x2x2 voxels around the corner.
-                m = Moments::default();
-                gather_ball(tree, cells, x, l, &mut m);
-            }
-            if m.count < 3.0 {
-                // All points of W': the voxels adjacent to W, by their moments.
-                let mut grown: Vec<usize> = w
-                    .iter()
-                    .flat_map(|&c| {
-                        let key = cells.keys[c];
-                        BLOCK.iter().filter_map(move |&o| offset(key, o, level).and_then(|k| cells.find(k)))
-                    })
-                    .collect();
-                grown.sort_unstable();
-                grown.dedup();
-                let mut all = Moments::default();
-                for &c in &grown {
-                    all.merge(&cells.moments[c]);
-                }
-                if let Some(p) = crate::fit::plane(&all) {
-                    let projected = x - p.normal * (x - p.point).dot(p.normal);
-                    return (projected, Some(TangentPlane::new(p.point, p.normal)));
+            _ => {
+                for &c in &w {
+                    gather_near(tree, cells, c, x, 0.5 * l, &mut m);
                 }
             }
-            fit(&m, x)
+        }
+        if m.count < 3.0 {
+            // W' within radius l: the ball lies in the 2x2x2 voxels around the corner.
+            m = Moments::default();
+            gather_ball(tree, cells, x, l, &mut m);
+        }
+        if m.count < 3.0 {
+            // All points of W': the voxels adjacent to W, by their moments.
+            let mut grown: Vec<usize> = w
+                .iter()
+                .flat_map(|&c| {
+                    let key = cells.keys[c];
+                    BLOCK.iter().filter_map(move |&o| offset(key, o, level).and_then(|k| cells.find(k)))
+                })
+                .collect();
+            grown.sort_unstable();
+            grown.dedup();
+            let mut all = Moments::default();
+            for &c in &grown {
+                all.merge(&cells.moments[c]);
+            }
+            if let Some(p) = crate::fit::plane(&all) {
+                let projected = x - p.normal * (x - p.point).dot(p.normal);
+                return (projected, Some(TangentPlane::new(p.point, p.normal)));
+            }
+        }
+        fit(&m, x)
+    };
+    // In place: a vertex reads only its own start position.
+    positions
+        .par_iter_mut()
+        .enumerate()
+        .map(|(v, out)| {
+            let (p, plane) = one(v, *out);
+            *out = p;
+            plane
         })
-        .unzip();
-    Mapped { positions, planes }
+        .collect()
 }
 
 /// Fewest points for the quadric; below, the plane of the paper.
@@ -313,11 +309,12 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
 /// Maps free vertices (of a subdivided level `level`) onto the points within one, then two,
 /// voxel edges of that level (queried on the voxels of the levels above, whose half edge those
 /// radii are).
-pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
+pub(crate) fn map_free(tree: &Octree, level: u32, positions: &mut [DVec3]) -> Vec<Option<TangentPlane>> {
     let l = crate::octree::voxel_size(level);
-    let (positions, planes) = start
-        .par_iter()
-        .map(|&x| {
+    positions
+        .par_iter_mut()
+        .map(|out| {
+            let x = *out;
             let mut m = Moments::default();
             for up in 1..=2u32 {
                 let Some(q) = level.checked_sub(up) else { break };
@@ -327,8 +324,9 @@ pub(crate) fn map_free(tree: &Octree, level: u32, start: &[DVec3]) -> Mapped {
                     break;
                 }
             }
-            fit(&m, x)
+            let (p, plane) = fit(&m, x);
+            *out = p;
+            plane
         })
-        .unzip();
-    Mapped { positions, planes }
+        .collect()
 }
