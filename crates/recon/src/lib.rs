@@ -407,17 +407,15 @@ pub fn reconstruct_with(
         trusted = finest;
     }
     // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, levels
-    // k - 1 and k - 2. Those levels are indexed; past the density limit the finest level is also
-    // built, unindexed, to split its parents' points for the ball queries of the mapping.
+    // k - 1 and k - 2. Nothing deeper is kept (or built).
     let keep = (trusted + 1).max(finest.saturating_sub(1)).min(MAX_LEVEL);
-    let build = if finest > trusted { keep.max(finest).min(MAX_LEVEL) } else { keep };
-    while tree.depth() > build {
+    while tree.depth() > keep {
         tree.levels.pop();
         part_times.pop();
     }
-    while tree.depth() < build {
+    while tree.depth() < keep {
         let t = Instant::now();
-        tree.push_level_indexed(tree.depth() < keep);
+        tree.push_level();
         part_times.push(t.elapsed());
     }
     let t = Instant::now();

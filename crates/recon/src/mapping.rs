@@ -63,35 +63,6 @@ fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &
     }
 }
 
-/// How far a point may lie outside its voxel's box in local units: the codes quantise at 2^-21
-/// of the cube, the `f32` positions round at 2^-25.
-const BOX_MARGIN: f64 = 1e-6;
-
-/// Like [`gather`], but visits only the children of `cell` (when the next level is built) whose
-/// box comes within `radius` of `x`. The skipped points would all fail the distance test, and the
-/// others are added in the same order, so the sums are identical.
-#[inline]
-fn gather_near(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &mut Moments) {
-    let fine = match tree.levels.get(cells.level as usize + 1) {
-        Some(fine) if !cells.first_child.is_empty() => fine,
-        _ => return gather(tree, cells, cell, x, radius, m),
-    };
-    let h = fine.voxel();
-    let r2 = radius * radius;
-    // The parent decoded once; a child's offset is the low three bits of its code (x, y, z).
-    let v = morton::decode(cells.keys[cell]);
-    let base = DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])) * (2.0 * h) - BOX_MARGIN;
-    for c in cells.first_child[cell] as usize..cells.first_child[cell + 1] as usize {
-        let o = fine.keys[c] & 7;
-        let lo = base + DVec3::new((o & 1) as f64, ((o >> 1) & 1) as f64, (o >> 2) as f64) * h;
-        let hi = lo + (h + 2.0 * BOX_MARGIN);
-        let d = (lo - x).max(x - hi).max(DVec3::ZERO);
-        if d.length_squared() < r2 {
-            gather(tree, fine, c, x, radius, m);
-        }
-    }
-}
-
 /// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
 fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
     match crate::fit::plane(m) {
@@ -162,7 +133,7 @@ pub(crate) fn map_wrapped(
             }
             _ => {
                 for &c in &w {
-                    gather_near(tree, cells, c, x, 0.5 * l, &mut m);
+                    gather(tree, cells, c, x, 0.5 * l, &mut m);
                 }
             }
         }
@@ -299,7 +270,7 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
                     continue;
                 }
                 if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
-                    gather_near(tree, cells, i, x, radius, m);
+                    gather(tree, cells, i, x, radius, m);
                 }
             }
         }

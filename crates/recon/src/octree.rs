@@ -57,11 +57,8 @@ pub(crate) struct Cells {
     pub starts: Vec<u32>,
     /// Moments of each voxel's points (local coordinates).
     pub moments: Vec<Moments>,
-    /// Morton code to voxel index (empty for a level built only to split the level above).
+    /// Morton code to voxel index.
     pub index: KeyMap,
-    /// Voxel `i`'s children are voxels `first_child[i]..first_child[i + 1]` of the next level
-    /// (empty when the next level is not built). Lets ball queries skip children out of reach.
-    pub first_child: Vec<u32>,
 }
 
 impl Cells {
@@ -155,14 +152,8 @@ impl Octree {
         let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
         drop(pairs);
         let n = local.len() as u32;
-        let root = Cells {
-            level: 0,
-            keys: vec![0],
-            starts: vec![0, n],
-            moments: Vec::new(),
-            index: KeyMap::from_keys(&[0]),
-            first_child: Vec::new(),
-        };
+        let root =
+            Cells { level: 0, keys: vec![0], starts: vec![0, n], moments: Vec::new(), index: KeyMap::from_keys(&[0]) };
         Self { frame, points: local, codes, levels: vec![root], distinct }
     }
 
@@ -173,12 +164,6 @@ impl Octree {
 
     /// Builds the next level (one O(|P|) scan, in parallel).
     pub(crate) fn push_level(&mut self) {
-        self.push_level_indexed(true);
-    }
-
-    /// Builds the next level; without `indexed` its voxels cannot be looked up by key (a level
-    /// that only splits the one above for ball queries, [`Cells::first_child`]).
-    pub(crate) fn push_level_indexed(&mut self, indexed: bool) {
         let level = self.depth() + 1;
         let shift = 3 * (CODE_BITS - level);
         let codes = &self.codes;
@@ -190,8 +175,8 @@ impl Octree {
         );
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
-        let index = if indexed { KeyMap::from_keys(&keys) } else { KeyMap::with_capacity(0) };
-        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index, first_child: Vec::new() });
+        let index = KeyMap::from_keys(&keys);
+        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
     }
 
     /// Computes the moments of levels `0..=deepest`: `deepest` from the points, the others by
@@ -199,21 +184,6 @@ impl Octree {
     /// [`Octree::push_level`]; frees the codes.
     pub(crate) fn finish(&mut self, deepest: u32) {
         self.codes = Vec::new();
-        for j in 0..self.levels.len() - 1 {
-            let (coarse, fine) = self.levels.split_at_mut(j + 1);
-            let (coarse, fine) = (&mut coarse[j], &fine[0]);
-            // Children are consecutive and in parent order.
-            let mut first = Vec::with_capacity(coarse.len() + 1);
-            let mut c = 0usize;
-            for &k in &coarse.keys {
-                first.push(c as u32);
-                while c < fine.len() && fine.keys[c] >> 3 == k {
-                    c += 1;
-                }
-            }
-            first.push(c as u32);
-            coarse.first_child = first;
-        }
         let deepest = (deepest as usize).min(self.levels.len() - 1);
         let pts = &self.points;
         let cells = &self.levels[deepest];
