@@ -83,8 +83,8 @@ fn degenerate_clouds_give_valid_meshes() {
     valid_or_error("huge", &huge);
     let tiny: Vec<DVec3> = support::sphere(3000).into_iter().map(|p| p * 1e-300).collect();
     valid_or_error("tiny", &tiny);
-    let mut rng = support::Rng(5);
-    let noise: Vec<DVec3> = (0..5000).map(|_| DVec3::new(rng.unit(), rng.unit(), rng.unit())).collect();
+    let mut rng = octowrap_geom::SplitMix64::from_state(5);
+    let noise: Vec<DVec3> = (0..5000).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
     valid_or_error("uniform noise", &noise);
     let clusters: Vec<DVec3> = (0..3000).map(|i| if i % 2 == 0 { DVec3::ZERO } else { DVec3::splat(1e6) } + DVec3::new(f64::from(i % 13) * 1e-3, f64::from(i % 7) * 1e-3, 0.0)).collect();
     valid_or_error("two far clusters", &clusters);

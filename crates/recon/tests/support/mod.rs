@@ -9,7 +9,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use octowrap_geom::DVec3;
+use octowrap_geom::{DVec3, SplitMix64};
 use octowrap_mesh::Mesh;
 
 /// What the checker found.
@@ -154,23 +154,6 @@ pub fn face_frames(mesh: &Mesh) -> Vec<(DVec3, DVec3)> {
         .collect()
 }
 
-/// A deterministic pseudo-random generator (`SplitMix64`).
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Fibonacci points on the unit sphere.
 pub fn sphere(n: usize) -> Vec<DVec3> {
     (0..n)
@@ -185,14 +168,14 @@ pub fn sphere(n: usize) -> Vec<DVec3> {
 
 /// A torus around Z, radii `big` and `small`, on a jittered angle grid.
 pub fn torus(n: usize, big: f64, small: f64) -> Vec<DVec3> {
-    let mut rng = Rng(7);
+    let mut rng = SplitMix64::from_state(7);
     (0..n)
         .map(|_| {
-            let u = rng.unit() * std::f64::consts::TAU;
+            let u = rng.f64() * std::f64::consts::TAU;
             // Area-uniform: accept v with density (big + small cos v).
             let v = loop {
-                let v = rng.unit() * std::f64::consts::TAU;
-                if rng.unit() * (big + small) <= big + small * v.cos() {
+                let v = rng.f64() * std::f64::consts::TAU;
+                if rng.f64() * (big + small) <= big + small * v.cos() {
                     break v;
                 }
             };
@@ -209,12 +192,12 @@ pub fn bowl(n: usize, cut: f64) -> Vec<DVec3> {
 
 /// A flat annulus in the plane z = 0 with radii `inner`..1, area-uniform, tiny noise.
 pub fn annulus(n: usize, inner: f64) -> Vec<DVec3> {
-    let mut rng = Rng(11);
+    let mut rng = SplitMix64::from_state(11);
     (0..n)
         .map(|_| {
-            let r = (inner * inner + rng.unit() * (1.0 - inner * inner)).sqrt();
-            let a = rng.unit() * std::f64::consts::TAU;
-            DVec3::new(r * a.cos(), r * a.sin(), (rng.unit() - 0.5) * 1e-4)
+            let r = (inner * inner + rng.f64() * (1.0 - inner * inner)).sqrt();
+            let a = rng.f64() * std::f64::consts::TAU;
+            DVec3::new(r * a.cos(), r * a.sin(), (rng.f64() - 0.5) * 1e-4)
         })
         .collect()
 }
@@ -224,17 +207,17 @@ pub fn box_surface(n: usize, lo: DVec3, hi: DVec3, seed: u64) -> Vec<DVec3> {
     let s = hi - lo;
     let areas = [s.y * s.z, s.y * s.z, s.x * s.z, s.x * s.z, s.x * s.y, s.x * s.y];
     let total: f64 = areas.iter().sum();
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::from_state(seed);
     (0..n)
         .map(|_| {
-            let mut pick = rng.unit() * total;
+            let mut pick = rng.f64() * total;
             let mut side = 0;
             while side < 5 && pick >= areas[side] {
                 pick -= areas[side];
                 side += 1;
             }
-            let (u, v) = (rng.unit(), rng.unit());
-            let mut p = lo + s * DVec3::new(rng.unit(), u, v);
+            let (u, v) = (rng.f64(), rng.f64());
+            let mut p = lo + s * DVec3::new(rng.f64(), u, v);
             let a = side / 2;
             p[a] = if side % 2 == 0 { hi[a] } else { lo[a] };
             p
@@ -244,13 +227,13 @@ pub fn box_surface(n: usize, lo: DVec3, hi: DVec3, seed: u64) -> Vec<DVec3> {
 
 /// A square sheet `[0, 1]^2` at height `z`, jittered grid, one-sided.
 pub fn sheet(side: usize, z: f64, seed: u64) -> Vec<DVec3> {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::from_state(seed);
     let mut out = Vec::new();
     for i in 0..side {
         for j in 0..side {
-            let x = (i as f64 + rng.unit()) / side as f64;
-            let y = (j as f64 + rng.unit()) / side as f64;
-            out.push(DVec3::new(x, y, z + (rng.unit() - 0.5) * 1e-4));
+            let x = (i as f64 + rng.f64()) / side as f64;
+            let y = (j as f64 + rng.f64()) / side as f64;
+            out.push(DVec3::new(x, y, z + (rng.f64() - 0.5) * 1e-4));
         }
     }
     out
