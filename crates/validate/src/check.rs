@@ -82,19 +82,19 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::FaceSize,
         short.iter().map(|&f| Element::Face(f)),
         short.len(),
-        format!("{} faces have fewer than 3 vertices", short.len()),
+        format!("faces with fewer than 3 vertices: {}", short.len()),
     );
     out.add(
         Code::IndexRange,
         range.iter().map(|&f| Element::Face(f)),
         range.len(),
-        format!("{} faces refer to vertices beyond the {n} that exist", range.len()),
+        format!("faces referring to vertices beyond the {n} that exist: {}", range.len()),
     );
     out.add(
         Code::DegenerateFace,
         degen.iter().map(|&f| Element::Face(f)),
         degen.len(),
-        format!("{} faces repeat a vertex", degen.len()),
+        format!("faces repeating a vertex: {}", degen.len()),
     );
 
     // Vertex checks.
@@ -104,7 +104,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::NonFiniteVertex,
         non_finite.iter().map(|&v| Element::Vertex(v)),
         non_finite.len(),
-        format!("{} vertices have NaN or infinite coordinates", non_finite.len()),
+        format!("vertices with NaN or infinite coordinates: {}", non_finite.len()),
     );
     let mut used = vec![false; n];
     for (f, face) in faces.iter().enumerate() {
@@ -120,7 +120,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::UnusedVertex,
         unused.iter().map(|&v| Element::Vertex(v)),
         unused.len(),
-        format!("{} vertices are used by no face", unused.len()),
+        format!("vertices used by no face: {}", unused.len()),
     );
     let dup_vertices = duplicate_vertices(mesh);
     counts.duplicate_vertices = dup_vertices.len();
@@ -128,7 +128,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::DuplicateVertex,
         dup_vertices.iter().map(|&v| Element::Vertex(v)),
         dup_vertices.len(),
-        format!("{} vertices repeat the exact position of an earlier vertex", dup_vertices.len()),
+        format!("vertices at the exact position of an earlier vertex: {}", dup_vertices.len()),
     );
 
     // Zero-area and duplicate faces.
@@ -139,7 +139,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::ZeroAreaFace,
         zero.iter().map(|&f| Element::Face(f)),
         zero.len(),
-        format!("{} faces have zero area", zero.len()),
+        format!("faces of zero area: {}", zero.len()),
     );
     // Half-edges bucketed by their smaller vertex.
     let mut bucket_len = vec![0u32; n + 1];
@@ -243,7 +243,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::DuplicateFace,
         dup_faces.iter().map(|&f| Element::Face(f)),
         dup_faces.len(),
-        format!("{} faces repeat an earlier face (the same vertex cycle, either way round)", dup_faces.len()),
+        format!("faces repeating an earlier face (same vertex cycle, either way round): {}", dup_faces.len()),
     );
     counts.boundary_edges = boundary.len();
     counts.non_manifold_edges = nm_edges.len();
@@ -251,7 +251,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::NonManifoldEdge,
         nm_edges.iter().copied(),
         nm_edges.len(),
-        format!("{} edges are shared by more than two faces", nm_edges.len()),
+        format!("edges shared by more than two faces: {}", nm_edges.len()),
     );
     let conflict_edges = conflicts.len();
     out.add(
@@ -259,7 +259,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         conflicts,
         counts.orientation_conflicts,
         format!(
-            "{} directed edges are used twice ({conflict_edges} edges): neighbouring faces disagree on orientation",
+            "directed edges used by two faces, where neighbours disagree on orientation: {} (on {conflict_edges} edge(s))",
             counts.orientation_conflicts
         ),
     );
@@ -281,7 +281,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::NonManifoldVertex,
         nm_vertices.iter().map(|&v| Element::Vertex(v)),
         nm_vertices.len(),
-        format!("{} vertices join more than one fan of faces", nm_vertices.len()),
+        format!("vertices joining more than one fan of faces: {}", nm_vertices.len()),
     );
 
     // Boundary loops: connected chains of boundary edges.
@@ -291,7 +291,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         Code::BoundaryEdge,
         boundary.iter().copied(),
         boundary.len(),
-        format!("{} boundary edges in {loops} loops (holes or borders)", boundary.len()),
+        format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", boundary.len()),
     );
 
     // Components: vertices joined through edges.
@@ -323,7 +323,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             Code::SelfIntersection,
             pairs.iter().map(|&(f, g)| Element::Faces(f, g)),
             pairs.len(),
-            format!("{} pairs of faces intersect", pairs.len()),
+            format!("pairs of intersecting faces: {}", pairs.len()),
         );
     }
     let mut findings = out.findings;

@@ -196,7 +196,7 @@ fn write_mesh_text(w: &mut dyn Write, m: &MeshReport, indent: &str) -> io::Resul
     let yes = |b: bool| if b { "yes" } else { "no" };
     writeln!(
         w,
-        "{indent}{} vertices, {} faces, {} edges, {} components, χ = {}{}",
+        "{indent}vertices {}, faces {}, edges {}, components {}, χ = {}{}",
         m.vertices,
         m.faces,
         m.edges,
