@@ -240,17 +240,7 @@ mod tests {
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let (_dir, conf) =
             scan_set(&format!("camera 0 0 0 0 0 0 1\nbmesh a.ply 10 0 0 0 0 -{h} {h}\nbmesh b.ply 0 0 0 0 0 0 1\n"));
-        let m = match crate::read_path(&conf, &opts()) {
-            Ok(m) => m,
-            Err(e) if e.message.contains("not implemented") => {
-                #[allow(clippy::print_stderr)]
-                {
-                    eprintln!("SKIPPED: the PLY reader is not there yet ({e})");
-                }
-                return;
-            }
-            Err(e) => panic!("{e}"),
-        };
+        let m = crate::read_path(&conf, &opts()).unwrap_or_else(|e| panic!("{e}"));
         let want = [DVec3::new(10.0, 1.0, 0.0), DVec3::new(9.0, 0.0, 0.0), DVec3::new(1.0, 2.0, 3.0)];
         assert_eq!(m.vertices.len(), 3);
         for (p, w) in m.vertices.positions.iter().zip(want) {
@@ -324,17 +314,7 @@ mod tests {
             }
             return;
         }
-        let m = match crate::read_path(&root.join("data/bun.conf"), &opts()) {
-            Ok(m) => m,
-            Err(e) if e.message.contains("not implemented") => {
-                #[allow(clippy::print_stderr)]
-                {
-                    eprintln!("SKIPPED: the PLY reader is not there yet ({e})");
-                }
-                return;
-            }
-            Err(e) => panic!("{e}"),
-        };
+        let m = crate::read_path(&root.join("data/bun.conf"), &opts()).unwrap_or_else(|e| panic!("{e}"));
         // PROVENANCE.md's per-scan counts (bun000 40,256 + bun045 40,097 + bun090 30,379 + bun180
         // 40,251 + bun270 31,701 + bun315 35,336 + chin 37,738 + ear_back 32,193 + top2 38,298 +
         // top3 36,023) add up to 362,272; its "Total 362,872" is a typo.
