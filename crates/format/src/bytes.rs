@@ -147,20 +147,14 @@ impl<'a> Reader<'a> {
 
     /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes.
     pub fn planes(&mut self, n: usize, max_planes: u8) -> Result<Vec<u64>, Error> {
-        let p = self.u8()?;
-        if p > max_planes {
-            return Err(self.invalid(format!("plane count {p} exceeds {max_planes}")));
-        }
-        let need = n.checked_mul(usize::from(p)).ok_or_else(|| self.invalid("plane block too large"))?;
-        if need > self.remaining() {
-            return Err(self.invalid(format!("plane block needs {need} bytes, {} left", self.remaining())));
-        }
+        let view = self.plane_view(n, max_planes)?;
         let mut out = vec![0u64; n];
-        for plane in 0..usize::from(p) {
-            let bytes = self.bytes(n)?;
-            let shift = 8 * plane;
-            for (v, &b) in out.iter_mut().zip(bytes) {
-                *v |= u64::from(b) << shift;
+        if n > 0 {
+            for (plane, bytes) in view.bytes.chunks_exact(n).enumerate() {
+                let shift = 8 * plane;
+                for (v, &b) in out.iter_mut().zip(bytes) {
+                    *v |= u64::from(b) << shift;
+                }
             }
         }
         Ok(out)
