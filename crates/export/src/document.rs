@@ -1,0 +1,508 @@
+//! The glTF document: buffer views, accessors, meshes and the node chain of the exported levels.
+//!
+//! Follows the glTF 2.0 specification §3.6 (buffers, views, accessors; vertex attributes aligned
+//! to 4 bytes, so 3-component `i16`/`i8`/`u16` attributes use a padded `byteStride`), §3.7
+//! (meshes), `KHR_mesh_quantization` (attribute types) and `EXT_meshopt_compression` (compressed
+//! views over an empty fallback buffer).
+
+use gltf_json as json;
+use json::accessor::{ComponentType, GenericComponentType, Type};
+use json::buffer::{Stride, Target};
+use json::validation::Checked::Valid;
+use json::validation::USize64;
+use octowrap_geom::{DVec3, Vec3};
+use octowrap_mesh::{Hierarchy, Rgb};
+use serde_json::{Map, Value, json};
+
+use crate::geometry::{self, Streams};
+use crate::{ExportError, ExportOptions, LevelSummary, Levels, Summary, lod};
+
+/// A document ready to be packed: its JSON model and the bytes of buffer 0.
+pub(crate) struct Built {
+    pub root: json::Root,
+    pub bin: Vec<u8>,
+    pub summary: Summary,
+}
+
+const MESHOPT: &str = "EXT_meshopt_compression";
+const QUANTIZATION: &str = "KHR_mesh_quantization";
+const LOD: &str = "MSFT_lod";
+
+/// Largest `i16` grid coordinate (normalized-range symmetric, so `-32767..=32767`).
+const Q16: f64 = 32767.0;
+
+/// The exported levels, in `MSFT_lod` order (finest first).
+fn chain(h: &Hierarchy, levels: Levels) -> Result<Vec<usize>, ExportError> {
+    let n = h.levels.len();
+    if n == 0 {
+        return Err(ExportError::invalid("the input holds no levels"));
+    }
+    Ok(match levels {
+        Levels::Finest => vec![n - 1],
+        Levels::All => (0..n).rev().collect(),
+        Levels::One(k) if k < n => vec![k],
+        Levels::One(k) => {
+            return Err(ExportError::invalid(format!(
+                "level {k} does not exist: the input has {n} level{} (0 to {})",
+                if n == 1 { "" } else { "s" },
+                n - 1
+            )));
+        }
+    })
+}
+
+fn check_options(opts: &ExportOptions) -> Result<Option<f64>, ExportError> {
+    if !(opts.max_screen_error.is_finite() && opts.max_screen_error > 0.0) {
+        return Err(ExportError::invalid(format!(
+            "the tolerated screen error must be a positive number, not {}",
+            opts.max_screen_error
+        )));
+    }
+    match opts.crease_angle_deg {
+        None => Ok(None),
+        Some(a) if a.is_finite() && (0.0..=180.0).contains(&a) => Ok((a < 180.0).then(|| a.to_radians().cos())),
+        Some(a) => Err(ExportError::invalid(format!("the crease angle must be between 0 and 180 degrees, not {a}"))),
+    }
+}
+
+/// Builds the document for `h`; `bin_uri` is buffer 0's URI (`None` for GLB's binary chunk).
+pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) -> Result<Built, ExportError> {
+    let crease_cos = check_options(opts)?;
+    let chain = chain(h, opts.levels)?;
+    let mut streams = Vec::with_capacity(chain.len());
+    let mut errors = Vec::with_capacity(chain.len());
+    for &k in &chain {
+        let mesh = &h.levels[k].mesh;
+        mesh.check_indices().map_err(|e| ExportError::invalid(format!("level {k}: {e}")))?;
+        if mesh.faces.is_empty() {
+            return Err(ExportError::invalid(format!(
+                "level {k} has no faces: glTF export writes surfaces (reconstruct a point cloud first)"
+            )));
+        }
+        let s = geometry::build(mesh, crease_cos, opts.colors);
+        if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
+            return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
+        }
+        if let Some(p) = s.positions.iter().find(|p| !p.as_vec3().is_finite()) {
+            return Err(ExportError::limit(format!("level {k}: position {p} is beyond the range of f32")));
+        }
+        errors.push(lod::mean_edge_length(mesh));
+        streams.push(s);
+    }
+    let (lo, hi) = streams
+        .iter()
+        .flat_map(|s| &s.positions)
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let grid = opts.quantize.then(|| Grid::new(lo, hi));
+    let any_colors = streams.iter().any(|s| s.colors.is_some());
+
+    let mut doc = Doc::new(opts.meshopt);
+    let mut summary = Summary {
+        levels: Vec::new(),
+        screen_coverage: Vec::new(),
+        extensions_used: Vec::new(),
+        extensions_required: Vec::new(),
+        bytes: 0,
+    };
+    for (i, (&k, s)) in chain.iter().zip(&streams).enumerate() {
+        let level = &h.levels[k];
+        let primitive = doc.primitive(s, grid.as_ref())?;
+        let quads = level.mesh.faces.iter().filter(|f| f.len() == 4).count();
+        let extras = json!({ "octowrap": {
+            "level": k,
+            "level_count": h.levels.len(),
+            "source_faces": level.mesh.faces.len(),
+            "source_quads": quads,
+            "source_vertices": level.mesh.vertex_count(),
+            "geometric_error": errors[i],
+            "geometric_error_kind": "mean edge length",
+        }});
+        doc.root.meshes.push(json::Mesh {
+            extensions: None,
+            extras: raw(&extras),
+            name: Some(format!("level {k}")),
+            primitives: vec![primitive],
+            weights: None,
+        });
+        summary.levels.push(LevelSummary {
+            level: k,
+            source_faces: level.mesh.faces.len(),
+            vertices: s.positions.len(),
+            triangles: s.indices.len() / 3,
+            u32_indices: s.positions.len() > usize::from(u16::MAX),
+            geometric_error: errors[i],
+        });
+    }
+    // Nodes: node i shows mesh i; node 0 (the finest) carries the chain and is the scene's root.
+    let finest_radius = streams[0]
+        .positions
+        .iter()
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let radius = 0.5 * (finest_radius.1 - finest_radius.0).length();
+    if chain.len() > 1 {
+        summary.screen_coverage = lod::screen_coverage(&errors, radius, opts.max_screen_error);
+    }
+    for (i, &k) in chain.iter().enumerate() {
+        let mut node = json::Node {
+            mesh: Some(json::Index::new(i as u32)),
+            name: Some(if i == 0 && chain.len() > 1 {
+                format!("level {k} (finest of the LOD chain)")
+            } else {
+                format!("level {k}")
+            }),
+            ..json::Node::default()
+        };
+        if let Some(g) = &grid {
+            node.translation = Some(g.origin.to_array());
+            node.scale = Some([g.step; 3]);
+        }
+        if i == 0 && chain.len() > 1 {
+            let ids: Vec<u32> = (1..chain.len() as u32).collect();
+            node.extensions = Some(json::extensions::scene::Node {
+                others: Map::from_iter([(LOD.to_owned(), json!({ "ids": ids }))]),
+                ..Default::default()
+            });
+            node.extras = raw(&json!({ "MSFT_screencoverage": summary.screen_coverage }));
+        }
+        doc.root.nodes.push(node);
+    }
+    doc.root.scenes.push(json::Scene {
+        extensions: None,
+        extras: None,
+        name: Some("octowrap export".to_owned()),
+        nodes: vec![json::Index::new(0)],
+    });
+    doc.root.scene = Some(json::Index::new(0));
+    doc.root.materials.push(material(any_colors));
+
+    let mut used = Vec::new();
+    let mut required = Vec::new();
+    if opts.meshopt {
+        used.push(MESHOPT.to_owned());
+        required.push(MESHOPT.to_owned());
+    }
+    if opts.quantize {
+        used.push(QUANTIZATION.to_owned());
+        required.push(QUANTIZATION.to_owned());
+    }
+    if chain.len() > 1 {
+        used.push(LOD.to_owned());
+    }
+    used.sort();
+    required.sort();
+    doc.root.extensions_used.clone_from(&used);
+    doc.root.extensions_required.clone_from(&required);
+    summary.extensions_used = used;
+    summary.extensions_required = required;
+
+    let metadata: Map<String, Value> =
+        opts.metadata.iter().map(|(k, v)| (k.clone(), Value::from(v.as_str()))).collect();
+    doc.root.asset = json::Asset {
+        copyright: None,
+        extensions: None,
+        extras: if metadata.is_empty() { None } else { raw(&json!({ "octowrap": metadata })) },
+        generator: Some(format!("octowrap-export {}", env!("CARGO_PKG_VERSION"))),
+        min_version: None,
+        version: "2.0".to_owned(),
+    };
+    let bin = doc.finish(bin_uri);
+    Ok(Built { root: doc.root, bin, summary })
+}
+
+/// The `i16` position grid shared by every exported level: world = origin + step * q.
+struct Grid {
+    origin: Vec3,
+    step: f32,
+}
+
+impl Grid {
+    fn new(lo: DVec3, hi: DVec3) -> Self {
+        let half = ((hi - lo) * 0.5).max_element();
+        let step = if half > 0.0 && (half / Q16) as f32 > 0.0 { (half / Q16) as f32 } else { 1.0 };
+        Self { origin: ((lo + hi) * 0.5).as_vec3(), step }
+    }
+
+    fn quantize(&self, p: DVec3) -> [i16; 3] {
+        let q = (p - self.origin.as_dvec3()) / f64::from(self.step);
+        q.to_array().map(|c| c.round().clamp(-Q16, Q16) as i16)
+    }
+}
+
+fn material(any_colors: bool) -> json::Material {
+    let base = if any_colors { [1.0; 4] } else { [0.8, 0.8, 0.8, 1.0] };
+    json::Material {
+        name: Some("octowrap surface".to_owned()),
+        double_sided: true,
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            base_color_factor: json::material::PbrBaseColorFactor(base),
+            metallic_factor: json::material::StrengthFactor(0.0),
+            roughness_factor: json::material::StrengthFactor(0.7),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// `v` as an `extras` value.
+fn raw(v: &Value) -> json::Extras {
+    serde_json::value::RawValue::from_string(v.to_string()).ok()
+}
+
+/// 8-bit sRGB to 16-bit linear (glTF vertex colours are linear).
+fn srgb_to_linear16(c: u8) -> u16 {
+    let s = f64::from(c) / 255.0;
+    let l = if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) };
+    (l * 65535.0).round() as u16
+}
+
+/// A buffer view under construction, with its compressed form when meshopt is on.
+struct PendingView {
+    offset: usize,
+    len: usize,
+    stride: usize,
+    count: usize,
+    vertex: bool,
+    compressed: Option<Vec<u8>>,
+}
+
+struct Doc {
+    root: json::Root,
+    data: Vec<u8>,
+    views: Vec<PendingView>,
+    meshopt: bool,
+}
+
+impl Doc {
+    fn new(meshopt: bool) -> Self {
+        Self { root: json::Root::default(), data: Vec::new(), views: Vec::new(), meshopt }
+    }
+
+    /// Appends a view of `count` elements of `stride` bytes at a 4-byte boundary.
+    fn view(&mut self, bytes: &[u8], stride: usize, vertex: bool, index_vertices: usize) -> Result<u32, ExportError> {
+        while self.data.len() % 4 != 0 {
+            self.data.push(0);
+        }
+        let count = bytes.len() / stride;
+        let compressed = if self.meshopt {
+            Some(if vertex {
+                encode_attributes(bytes, stride)?
+            } else {
+                encode_triangles(bytes, stride, index_vertices)?
+            })
+        } else {
+            None
+        };
+        self.views.push(PendingView { offset: self.data.len(), len: bytes.len(), stride, count, vertex, compressed });
+        self.data.extend_from_slice(bytes);
+        Ok(self.views.len() as u32 - 1)
+    }
+
+    fn accessor(
+        &mut self,
+        view: u32,
+        count: usize,
+        ct: ComponentType,
+        ty: Type,
+        normalized: bool,
+        bounds: Option<(Value, Value)>,
+    ) -> json::Index<json::Accessor> {
+        let (min, max) = bounds.map_or((None, None), |(a, b)| (Some(a), Some(b)));
+        self.root.accessors.push(json::Accessor {
+            buffer_view: Some(json::Index::new(view)),
+            byte_offset: None,
+            count: USize64(count as u64),
+            component_type: Valid(GenericComponentType(ct)),
+            extensions: None,
+            extras: None,
+            type_: Valid(ty),
+            min,
+            max,
+            name: None,
+            normalized,
+            sparse: None,
+        });
+        json::Index::new(self.root.accessors.len() as u32 - 1)
+    }
+
+    fn primitive(&mut self, s: &Streams, grid: Option<&Grid>) -> Result<json::mesh::Primitive, ExportError> {
+        let n = s.positions.len();
+        let mut attributes = std::collections::BTreeMap::new();
+        // POSITION
+        let position = if let Some(g) = grid {
+            let q: Vec<[i16; 4]> = s
+                .positions
+                .iter()
+                .map(|&p| {
+                    let [x, y, z] = g.quantize(p);
+                    [x, y, z, 0]
+                })
+                .collect();
+            let (lo, hi) = bounds(q.iter().map(|v| [v[0], v[1], v[2]].map(f64::from)));
+            let view = self.view(bytemuck::cast_slice(&q), 8, true, 0)?;
+            self.accessor(view, n, ComponentType::I16, Type::Vec3, false, Some((json!(lo), json!(hi))))
+        } else {
+            let f: Vec<[f32; 3]> = s.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+            let (lo, hi) = bounds(f.iter().map(|v| v.map(f64::from)));
+            let view = self.view(bytemuck::cast_slice(&f), 12, true, 0)?;
+            self.accessor(view, n, ComponentType::F32, Type::Vec3, false, Some((json!(lo), json!(hi))))
+        };
+        attributes.insert(Valid(json::mesh::Semantic::Positions), position);
+        // NORMAL
+        let normal = if grid.is_some() {
+            let q: Vec<[i8; 4]> = s
+                .normals
+                .iter()
+                .map(|n| {
+                    let [x, y, z] = n.to_array().map(|c| (c * 127.0).round().clamp(-127.0, 127.0) as i8);
+                    [x, y, z, 0]
+                })
+                .collect();
+            let view = self.view(bytemuck::cast_slice(&q), 4, true, 0)?;
+            self.accessor(view, n, ComponentType::I8, Type::Vec3, true, None)
+        } else {
+            let f: Vec<[f32; 3]> = s.normals.iter().map(|v| v.to_array()).collect();
+            let view = self.view(bytemuck::cast_slice(&f), 12, true, 0)?;
+            self.accessor(view, n, ComponentType::F32, Type::Vec3, false, None)
+        };
+        attributes.insert(Valid(json::mesh::Semantic::Normals), normal);
+        // COLOR_0
+        if let Some(colors) = &s.colors {
+            let c: Vec<[u16; 4]> = colors
+                .iter()
+                .map(|&[r, g, b]: &Rgb| [srgb_to_linear16(r), srgb_to_linear16(g), srgb_to_linear16(b), 0])
+                .collect();
+            let view = self.view(bytemuck::cast_slice(&c), 8, true, 0)?;
+            let color = self.accessor(view, n, ComponentType::U16, Type::Vec3, true, None);
+            attributes.insert(Valid(json::mesh::Semantic::Colors(0)), color);
+        }
+        // Indices: u16 while every index stays below the primitive-restart value 65535.
+        let indices = if n <= usize::from(u16::MAX) {
+            let i: Vec<u16> = s.indices.iter().map(|&i| i as u16).collect();
+            let view = self.view(bytemuck::cast_slice(&i), 2, false, n)?;
+            self.accessor(view, i.len(), ComponentType::U16, Type::Scalar, false, None)
+        } else {
+            let view = self.view(bytemuck::cast_slice(&s.indices), 4, false, n)?;
+            self.accessor(view, s.indices.len(), ComponentType::U32, Type::Scalar, false, None)
+        };
+        Ok(json::mesh::Primitive {
+            attributes,
+            extensions: None,
+            extras: None,
+            indices: Some(indices),
+            material: Some(json::Index::new(0)),
+            mode: Valid(json::mesh::Mode::Triangles),
+            targets: None,
+        })
+    }
+
+    /// Writes the views and buffers into the JSON model; returns buffer 0's bytes.
+    fn finish(&mut self, bin_uri: Option<&str>) -> Vec<u8> {
+        while self.data.len() % 4 != 0 {
+            self.data.push(0);
+        }
+        let mut compressed = Vec::new();
+        for v in &self.views {
+            let mut view = json::buffer::View {
+                buffer: json::Index::new(0),
+                byte_length: USize64(v.len as u64),
+                byte_offset: Some(USize64(v.offset as u64)),
+                byte_stride: v.vertex.then_some(Stride(v.stride)),
+                name: None,
+                target: Some(Valid(if v.vertex { Target::ArrayBuffer } else { Target::ElementArrayBuffer })),
+                extensions: None,
+                extras: None,
+            };
+            if let Some(c) = &v.compressed {
+                while compressed.len() % 4 != 0 {
+                    compressed.push(0);
+                }
+                let ext = json!({
+                    "buffer": 0,
+                    "byteOffset": compressed.len(),
+                    "byteLength": c.len(),
+                    "byteStride": v.stride,
+                    "count": v.count,
+                    "mode": if v.vertex { "ATTRIBUTES" } else { "TRIANGLES" },
+                });
+                compressed.extend_from_slice(c);
+                view.buffer = json::Index::new(1);
+                view.extensions =
+                    Some(json::extensions::buffer::View { others: Map::from_iter([(MESHOPT.to_owned(), ext)]) });
+            }
+            self.root.buffer_views.push(view);
+        }
+        let buffer = |len: usize, uri: Option<&str>| json::Buffer {
+            byte_length: USize64(len as u64),
+            name: None,
+            uri: uri.map(str::to_owned),
+            extensions: None,
+            extras: None,
+        };
+        if self.meshopt {
+            while compressed.len() % 4 != 0 {
+                compressed.push(0);
+            }
+            self.root.buffers.push(buffer(compressed.len(), bin_uri));
+            let mut fallback = buffer(self.data.len(), None);
+            fallback.extensions = Some(json::extensions::buffer::Buffer {
+                others: Map::from_iter([(MESHOPT.to_owned(), json!({ "fallback": true }))]),
+            });
+            self.root.buffers.push(fallback);
+            compressed
+        } else {
+            self.root.buffers.push(buffer(self.data.len(), bin_uri));
+            std::mem::take(&mut self.data)
+        }
+    }
+}
+
+/// Component-wise minimum and maximum.
+fn bounds(values: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    values.fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), v| {
+        (std::array::from_fn(|i| lo[i].min(v[i])), std::array::from_fn(|i| hi[i].max(v[i])))
+    })
+}
+
+/// meshopt attribute codec, version 0 (the only one `EXT_meshopt_compression` allows).
+fn encode_attributes(bytes: &[u8], stride: usize) -> Result<Vec<u8>, ExportError> {
+    let r = match stride {
+        4 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 4]>(bytes), 2, Some(0)),
+        8 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 8]>(bytes), 2, Some(0)),
+        12 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 12]>(bytes), 2, Some(0)),
+        _ => unreachable!("the exporter writes vertex strides of 4, 8 and 12 bytes only"),
+    };
+    r.map_err(|e| ExportError::invalid(format!("meshopt could not encode a vertex stream: {e}")))
+}
+
+/// meshopt triangle index codec.
+fn encode_triangles(bytes: &[u8], stride: usize, vertices: usize) -> Result<Vec<u8>, ExportError> {
+    let indices: Vec<u32> = if stride == 2 {
+        bytemuck::cast_slice::<u8, u16>(bytes).iter().map(|&i| u32::from(i)).collect()
+    } else {
+        bytemuck::cast_slice::<u8, u32>(bytes).to_vec()
+    };
+    meshopt::encode_index_buffer(&indices, vertices)
+        .map_err(|e| ExportError::invalid(format!("meshopt could not encode an index stream: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_endpoints_and_midpoint() {
+        assert_eq!(srgb_to_linear16(0), 0);
+        assert_eq!(srgb_to_linear16(255), 65535);
+        // sRGB 0.5 is about 21.4 % linear.
+        assert!((f64::from(srgb_to_linear16(128)) / 65535.0 - 0.2158).abs() < 1e-3);
+    }
+
+    #[test]
+    fn grid_spans_the_box_symmetrically() {
+        let g = Grid::new(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(3.0, 1.0, 2.5));
+        assert_eq!(g.quantize(DVec3::new(-1.0, 0.5, 2.25)), [-32767, 0, 0]);
+        assert_eq!(g.quantize(DVec3::new(3.0, 0.5, 2.25)), [32767, 0, 0]);
+        // A flat or single-point box still gives a usable (non-zero) step.
+        assert!(Grid::new(DVec3::ONE, DVec3::ONE).step > 0.0);
+    }
+}

@@ -1,0 +1,169 @@
+//! Containers: GLB (glTF 2.0 §4.4, binary glTF) and `.gltf` + `.bin`, written atomically.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::document::Built;
+use crate::{ExportError, ExportOptions, Summary, to_glb_with_summary, to_gltf};
+use octowrap_mesh::Hierarchy;
+
+/// The two glTF container forms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Container {
+    /// One binary `.glb` file: JSON chunk plus binary chunk.
+    Glb,
+    /// A `.gltf` JSON file and a `.bin` file beside it with the same stem.
+    Gltf,
+}
+
+impl Container {
+    /// The container an output path's extension names (`.glb` or `.gltf`, any case).
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?;
+        if ext.eq_ignore_ascii_case("glb") {
+            Some(Self::Glb)
+        } else if ext.eq_ignore_ascii_case("gltf") {
+            Some(Self::Gltf)
+        } else {
+            None
+        }
+    }
+}
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: &[u8; 4] = b"JSON";
+const CHUNK_BIN: &[u8; 4] = b"BIN\0";
+
+fn json_bytes(built: &Built, pretty: bool) -> Vec<u8> {
+    let r = if pretty { serde_json::to_vec_pretty(&built.root) } else { serde_json::to_vec(&built.root) };
+    r.expect("the glTF model holds only strings, numbers and maps with string keys")
+}
+
+/// Packs a built document as GLB: 12-byte header, JSON chunk padded with spaces, binary chunk
+/// padded with zeros, every chunk 4-byte aligned.
+pub(crate) fn glb(built: Built) -> Result<(Vec<u8>, Summary), ExportError> {
+    let mut json = json_bytes(&built, false);
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut bin = built.bin;
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() as u64 + if bin.is_empty() { 0 } else { 8 + bin.len() as u64 };
+    let Ok(total32) = u32::try_from(total) else {
+        return Err(ExportError::limit(format!("the GLB would be {total} bytes; the format's limit is 4 GiB")));
+    };
+    let mut out = Vec::with_capacity(total as usize);
+    out.extend_from_slice(GLB_MAGIC);
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&total32.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(CHUNK_JSON);
+    out.extend_from_slice(&json);
+    if !bin.is_empty() {
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(CHUNK_BIN);
+        out.extend_from_slice(&bin);
+    }
+    let mut summary = built.summary;
+    summary.bytes = total;
+    Ok((out, summary))
+}
+
+/// Returns the pretty-printed JSON and the binary buffer.
+pub(crate) fn gltf(built: Built) -> Result<(Vec<u8>, Vec<u8>, Summary), ExportError> {
+    let json = json_bytes(&built, true);
+    let mut summary = built.summary;
+    summary.bytes = (json.len() + built.bin.len()) as u64;
+    Ok((json, built.bin, summary))
+}
+
+/// Exports `h` to `path`: GLB for `.glb`, or for `.gltf` the JSON plus `STEM.bin` beside it. Each
+/// file is written to a temporary file in the same folder and renamed into place when complete,
+/// so a failed export leaves nothing half-written. Errors name the output file.
+///
+/// ```no_run
+/// use octowrap_export::{ExportOptions, Levels, write_path};
+/// # let hierarchy = octowrap_mesh::Hierarchy::default();
+/// let mut options = ExportOptions::default();
+/// options.levels = Levels::All;
+/// options.quantize = true;
+/// let summary = write_path("dragon.glb".as_ref(), &hierarchy, &options)?;
+/// println!("{} levels, {} bytes", summary.levels.len(), summary.bytes);
+/// # Ok::<(), octowrap_export::ExportError>(())
+/// ```
+pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Summary, ExportError> {
+    let name = path.display().to_string();
+    match Container::from_path(path) {
+        Some(Container::Glb) => {
+            let (bytes, summary) = to_glb_with_summary(h, opts).map_err(|e| e.in_file(&name))?;
+            atomic_write(path, &bytes)?;
+            Ok(summary)
+        }
+        Some(Container::Gltf) => {
+            let bin_path = path.with_extension("bin");
+            let Some(bin_name) = bin_path.file_name().and_then(|n| n.to_str()) else {
+                return Err(ExportError::Unsupported {
+                    file: name,
+                    message: "the .bin file name beside it must be valid UTF-8".to_owned(),
+                });
+            };
+            let uri = percent_encode(bin_name);
+            let (json, bin, summary) = to_gltf(h, opts, &uri).map_err(|e| e.in_file(&name))?;
+            atomic_write(&bin_path, &bin)?;
+            atomic_write(path, &json)?;
+            Ok(summary)
+        }
+        None => Err(ExportError::Unsupported {
+            file: name,
+            message: "the output must end in .glb (binary glTF) or .gltf (JSON plus .bin)".to_owned(),
+        }),
+    }
+}
+
+/// A file name as a relative URI: bytes outside the unreserved set are percent-encoded.
+fn percent_encode(name: &str) -> String {
+    let mut out = String::with_capacity(name.len());
+    for b in name.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
+
+fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), ExportError> {
+    let io = |source| ExportError::Io { file: path.display().to_string(), source };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new().prefix(".octowrap-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
+    tmp.write_all(bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn containers_and_uris() {
+        assert_eq!(Container::from_path(Path::new("a/B.GLB")), Some(Container::Glb));
+        assert_eq!(Container::from_path(Path::new("b.gltf")), Some(Container::Gltf));
+        assert_eq!(Container::from_path(Path::new("c.obj")), None);
+        assert_eq!(percent_encode("my model #1.bin"), "my%20model%20%231.bin");
+    }
+
+    #[test]
+    fn unsupported_extension_names_the_file() {
+        let e = write_path(Path::new("out.fbx"), &Hierarchy::default(), &ExportOptions::default()).unwrap_err();
+        assert!(matches!(e, ExportError::Unsupported { .. }));
+        assert!(e.to_string().starts_with("out.fbx: unsupported"), "{e}");
+    }
+}

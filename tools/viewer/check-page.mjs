@@ -1,0 +1,87 @@
+// Opens the viewer page on one GLB in headless Chromium, moves the camera near and far, saves a
+// screenshot, and prints a JSON result:
+//   { "loaded": true, "levels": [...], "near": {distance, level, name, coverage},
+//     "far": {...}, "screenshot": PATH, "triangles": N }
+//
+//   node check-page.mjs MODEL.glb SCREENSHOT.png [CHROMIUM]
+//
+// The page and the model are served from 127.0.0.1 on a free port for the run only. Chromium is
+// /usr/bin/chromium unless given, with a fresh profile. Exit 0 with the JSON when the page loaded
+// the model, 1 when the page reported an error (JSON with "error"), 2 when nothing could run.
+import http from 'node:http';
+import { mkdtemp, readFile, rm } from 'node:fs/promises';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const [model, shot, exe = '/usr/bin/chromium'] = process.argv.slice(2);
+if (!model || !shot) {
+  console.error('usage: node check-page.mjs MODEL.glb SCREENSHOT.png [CHROMIUM]');
+  process.exit(2);
+}
+const root = path.dirname(fileURLToPath(import.meta.url));
+const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.glb': 'model/gltf-binary', '.wasm': 'application/wasm' };
+
+const server = http.createServer(async (req, res) => {
+  try {
+    const url = new URL(req.url, 'http://localhost');
+    const file = url.pathname === '/model.glb' ? path.resolve(model) : path.join(root, path.normalize(decodeURIComponent(url.pathname)));
+    if (url.pathname !== '/model.glb' && !file.startsWith(root + path.sep)) throw new Error('outside');
+    const body = await readFile(file);
+    res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
+    res.end(body);
+  } catch {
+    res.writeHead(404);
+    res.end();
+  }
+});
+await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
+const port = server.address().port;
+const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-chromium-'));
+let context;
+let code = 0;
+try {
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: exe,
+    headless: true,
+    viewport: { width: 800, height: 600 },
+    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+      '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+  const page = context.pages()[0] || (await context.newPage());
+  const logs = [];
+  page.on('console', (m) => logs.push(m.text()));
+  page.on('pageerror', (e) => logs.push(String(e)));
+  await page.goto(`http://127.0.0.1:${port}/index.html?model=/model.glb`);
+  await page.waitForFunction(() => window.octowrap && (window.octowrap.ready || window.octowrap.error), null, { timeout: 90000 });
+  const error = await page.evaluate(() => window.octowrap.error);
+  if (error) {
+    process.stdout.write(JSON.stringify({ loaded: false, error, logs }) + '\n');
+    code = 1;
+  } else {
+    const result = await page.evaluate(() => {
+      const s = window.octowrap;
+      const r = s.radius;
+      const lod = s.lod;
+      const finite = lod ? lod.distances.filter((d) => Number.isFinite(d) && d > 0) : [];
+      const farDistance = Math.max(r * 40, ...finite.map((d) => d * 1.5));
+      const out = { loaded: true, radius: r, lod, triangles: s.triangles, extensionsUsed: s.extensionsUsed };
+      out.far = { distance: farDistance, ...s.setDistance(farDistance), coverage: s.coverage() };
+      out.near = { distance: r * 2.6, ...s.setDistance(r * 2.6), coverage: s.coverage() };
+      return out;
+    });
+    await page.screenshot({ path: shot });
+    result.screenshot = shot;
+    result.logs = logs;
+    process.stdout.write(JSON.stringify(result) + '\n');
+  }
+} catch (err) {
+  console.error(`check-page.mjs: ${err && err.message ? err.message : err}`);
+  code = 2;
+} finally {
+  if (context) await context.close();
+  server.close();
+  await rm(profile, { recursive: true, force: true });
+}
+process.exit(code);
