@@ -28,4 +28,6 @@ pub enum Command {
     Info(cmd::info::Args),
     Extract(cmd::extract::Args),
     Validate(cmd::validate::Args),
+    Decimate(cmd::decimate::Args),
+    Export(cmd::export::Args),
 }

@@ -1,6 +1,8 @@
 //! One module per subcommand.
 
 pub mod convert;
+pub mod decimate;
+pub mod export;
 pub mod extract;
 pub mod info;
 pub mod input;
@@ -20,5 +22,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Extract(a) => extract::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Validate(a) => validate::run(&a),
+        Command::Decimate(a) => decimate::run(&a),
+        Command::Export(a) => export::run(&a),
     }
 }

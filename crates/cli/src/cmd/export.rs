@@ -1,0 +1,149 @@
+//! `octowrap export`: an MRQ hierarchy or any mesh as glTF 2.0 (GLB, or .gltf + .bin).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::ValueEnum;
+use octowrap_export::{ExportOptions, Levels};
+use octowrap_mesh::Hierarchy;
+
+use super::input::InputArgs;
+use super::mrq;
+use crate::progress;
+
+/// Export a hierarchy or mesh as glTF 2.0: one .glb file, or a .gltf file with a .bin beside it.
+///
+/// Quads are split along their shorter diagonal; normals are smooth (area-weighted) unless
+/// --crease-angle splits them where faces meet at a sharper angle; vertex colours are kept. Each
+/// level becomes its own mesh and node, named `level K`; the level's numbers (faces, quads,
+/// geometric error) are in the mesh's extras, the input's metadata in the asset's extras.
+///
+/// --levels all writes every level of an MRQ file as a level-of-detail chain (MSFT_lod, finest
+/// first, with MSFT_screencoverage switching hints derived from each level's mean edge length);
+/// loaders without MSFT_lod show the finest level. Without it, the finest level (or --level K) is
+/// written. Mesh inputs (PLY, OBJ, OFF, STL, ...) have one level.
+///
+/// --quantize stores positions as 16-bit integers with a node transform and normals as 8-bit
+/// (KHR_mesh_quantization, then required); --meshopt compresses every buffer with meshoptimizer
+/// (EXT_meshopt_compression, then required). The same input and options give the same bytes.
+///
+/// Exit codes: 0 written; 2 the input could not be read or exported (nothing is written then).
+///
+/// Examples:
+///   octowrap export dragon.mrq -o dragon.glb --levels all --quantize
+///   octowrap export dragon.mrq -o dragon-l6.glb --level 6 --meshopt --quantize
+///   octowrap export part.stl -o part.gltf --crease-angle 30
+///   octowrap export bunny.ply -o bunny.glb --no-colors
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+#[allow(clippy::doc_markdown)] // the help text names glTF extensions, not Rust items
+pub struct Args {
+    /// Input: an MRQ file or any mesh (PLY, OBJ, OFF, STL, ...; `-` for standard input with --from).
+    pub input: PathBuf,
+    /// Output file: .glb (binary glTF) or .gltf (JSON, with OUT's stem .bin beside it).
+    #[arg(long, short = 'o', value_name = "OUT")]
+    pub output: PathBuf,
+    /// Which levels of an MRQ file: `all` writes every level as an MSFT_lod chain; `finest` (the
+    /// default) the finest only.
+    #[arg(long, value_name = "WHICH", conflicts_with = "level")]
+    pub levels: Option<WhichLevels>,
+    /// Write level K of an MRQ file only (0 = coarsest).
+    #[arg(long, short = 'l', value_name = "K")]
+    pub level: Option<u32>,
+    /// Store positions as i16 with a node transform and normals as i8 (KHR_mesh_quantization).
+    #[arg(long)]
+    pub quantize: bool,
+    /// Compress the buffers with meshoptimizer (EXT_meshopt_compression).
+    #[arg(long)]
+    pub meshopt: bool,
+    /// Split normals where faces meet at more than this angle, in degrees (0 to 180; default:
+    /// smooth everywhere).
+    #[arg(long, value_name = "DEGREES")]
+    pub crease_angle: Option<f64>,
+    /// Leave vertex colours out.
+    #[arg(long)]
+    pub no_colors: bool,
+    /// The projected error, in pixels of a 1080-pixel-high view, the level-switching hints allow.
+    #[arg(long, value_name = "PIXELS", default_value_t = 1.0)]
+    pub screen_error: f64,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+/// `--levels` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WhichLevels {
+    /// Every level, chained with MSFT_lod.
+    All,
+    /// The finest level.
+    Finest,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    if octowrap_export::Container::from_path(&args.output).is_none() {
+        bail!("cannot tell the glTF form of '{}': the output must end in .glb or .gltf", args.output.display());
+    }
+    let mut opts = ExportOptions::default();
+    opts.levels = match (args.levels, args.level) {
+        (Some(WhichLevels::All), _) => Levels::All,
+        (_, Some(k)) => Levels::One(k as usize),
+        _ => Levels::Finest,
+    };
+    opts.quantize = args.quantize;
+    opts.meshopt = args.meshopt;
+    opts.crease_angle_deg = args.crease_angle;
+    opts.colors = !args.no_colors;
+    opts.max_screen_error = args.screen_error / 1080.0;
+    let input_name = args.input.display().to_string();
+    let source = args.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let h = if mrq::is_mrq(&args.input) {
+        // Levels beyond the one asked for are not read.
+        let file = mrq::read(&args.input, args.level)?;
+        let m = &file.info.metadata;
+        for (k, v) in [("units", &m.units), ("source", &m.source), ("generator", &m.generator)] {
+            if !v.is_empty() {
+                opts.metadata.push((k.to_owned(), v.clone()));
+            }
+        }
+        opts.metadata.extend(m.entries.iter().cloned());
+        if let Levels::One(k) = opts.levels {
+            if k < file.hierarchy.levels.len() {
+                opts.levels = Levels::Finest; // the decoded prefix ends at level k
+            }
+        }
+        file.hierarchy
+    } else {
+        if args.level.is_some_and(|k| k > 0) || args.levels == Some(WhichLevels::All) {
+            eprintln!("note: {input_name} is a single mesh: exporting it as one level");
+        }
+        if matches!(opts.levels, Levels::One(_)) {
+            opts.levels = Levels::Finest;
+        }
+        let mesh = args.input_args.read(&args.input)?;
+        Hierarchy::single(mesh)
+    };
+    if !opts.metadata.iter().any(|(k, _)| k == "source") && !source.is_empty() {
+        opts.metadata.push(("source".to_owned(), source));
+    }
+    let pb = progress::spinner(format!("exporting {}", args.output.display()));
+    let written = octowrap_export::write_path(&args.output, &h, &opts);
+    pb.finish_and_clear();
+    let summary = written.with_context(|| format!("exporting {input_name}"))?;
+    let triangles: usize = summary.levels.iter().map(|l| l.triangles).sum();
+    let names: Vec<String> = summary.levels.iter().map(|l| l.level.to_string()).collect();
+    eprintln!(
+        "wrote {}: level{} {}, {triangles} triangles, {} bytes{}",
+        args.output.display(),
+        if names.len() == 1 { "" } else { "s" },
+        names.join(", "),
+        summary.bytes,
+        if summary.extensions_used.is_empty() {
+            String::new()
+        } else {
+            format!(", extensions {}", summary.extensions_used.join(", "))
+        }
+    );
+    Ok(ExitCode::SUCCESS)
+}
