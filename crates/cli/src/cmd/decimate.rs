@@ -1,0 +1,319 @@
+//! `octowrap decimate`: error-bounded decimation of any mesh, and adaptive cuts through MRQ
+//! hierarchies.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use octowrap_decimate::metrics::{Sampling, distance};
+use octowrap_decimate::{Camera, CutCriterion, DecimateOptions, ErrorBound, QuadMode};
+use octowrap_io::{Format, WriteOptions};
+use octowrap_mesh::{Hierarchy, Mesh};
+use serde::Serialize;
+
+use super::input::{InputArgs, parse_format};
+use super::mrq;
+use crate::progress;
+
+/// Decimate a mesh to a face budget or an error budget, or cut an MRQ hierarchy adaptively.
+///
+/// Any mesh (PLY, OBJ, OFF, STL, MRQ; triangles, quads or polygons) is decimated by quadric-error
+/// edge collapse. The output is never less manifold than the input: no new non-manifold edges or
+/// vertices, no flipped faces; non-manifold spots of the input are left exactly as they are.
+/// Boundaries are preserved (--lock-border keeps boundary vertices fixed). Quad-dominant input is
+/// decimated on its triangulation and re-paired into quads where two triangles make a convex,
+/// nearly flat quad (--quads). The error reached is reported (in the input's units and as a
+/// percentage of its bounding-box diagonal); --measure also measures the sampled symmetric
+/// Hausdorff and RMS distance between input and output.
+///
+/// Targets (at least one; with several, decimation stops at whichever comes first):
+///   --target-faces N   at most N faces
+///   --ratio R          at most R times the input's faces (0 < R <= 1)
+///   --max-error E      no collapse whose error exceeds E: a length in the input's units, or a
+///                      percentage of the bounding-box diagonal (`0.1%`)
+///
+/// MRQ input with --max-error or --view: a hierarchy cut instead. Each region of the surface uses
+/// the coarsest level whose distance to the finest level is at most E (or, with --view, the
+/// screen-space error in pixels allowed by the camera); the regions are stitched through the finest
+/// level's vertices, so the result is crack-free and two-manifold wherever the finest level is.
+///
+/// Camera JSON for --view (the schema):
+///   { "position": [x, y, z],          eye, world units
+///     "target": [x, y, z],            point looked at
+///     "up": [0, 0, 1],                up direction (optional, default +Z)
+///     "fov_y_degrees": 60,            vertical field of view, (0, 180)
+///     "viewport_height_px": 1080,     viewport height in pixels
+///     "pixel_error": 1.0 }            largest screen-space error, pixels
+/// A region at distance d from the eye may be coarse when its error is at most
+/// pixel_error * 2 d tan(fov_y / 2) / viewport_height_px.
+///
+/// The output is written to a temporary file and renamed into place. A summary goes to standard
+/// error; --json prints the report on standard output.
+///
+/// Exit codes: 0 done; 2 the command could not run (unreadable input, bad arguments).
+///
+/// Examples:
+///   octowrap decimate dragon_vrip.ply.gz -o dragon-1pc.ply --ratio 0.01
+///   octowrap decimate scan.obj -o scan-small.obj --target-faces 20000 --lock-border
+///   octowrap decimate part.stl -o part.ply --max-error 0.05%
+///   octowrap decimate bunny.mrq -o bunny-cut.ply --max-error 0.0005
+///   octowrap decimate bunny.mrq -o bunny-view.obj --view camera.json
+///   octowrap decimate mesh.ply -o out.off --ratio 0.1 --measure --json > report.json
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+#[allow(clippy::doc_markdown)] // the examples are shell lines shown by --help, not Rust names
+pub struct Args {
+    /// Input mesh or MRQ file (`-` for standard input).
+    pub input: PathBuf,
+    /// Output file: ply, obj, off, stl, or mrq (a one-level file); `-` for standard output with --to.
+    #[arg(long, short = 'o', value_name = "OUT")]
+    pub output: PathBuf,
+    /// Target face count.
+    #[arg(long, value_name = "N", required_unless_present_any = ["ratio", "max_error", "view"])]
+    pub target_faces: Option<usize>,
+    /// Target face count as a fraction of the input's, in (0, 1].
+    #[arg(long, value_name = "R", conflicts_with = "target_faces", value_parser = parse_ratio)]
+    pub ratio: Option<f64>,
+    /// Error bound: a length in the input's units, or a percentage of the bounding-box diagonal
+    /// (`0.1%`).
+    #[arg(long, value_name = "E", value_parser = parse_error)]
+    pub max_error: Option<ErrorBound>,
+    /// MRQ input: cut for this camera (JSON file; schema above) instead of a fixed error.
+    #[arg(long, value_name = "CAMERA.json", conflicts_with_all = ["max_error", "target_faces", "ratio"])]
+    pub view: Option<PathBuf>,
+    /// Keep boundary vertices fixed (interior vertices may still collapse into them).
+    #[arg(long)]
+    pub lock_border: bool,
+    /// Quad-dominant input: auto (re-pair into quads when half or more of the faces are quads),
+    /// quads (always re-pair), triangles (never).
+    #[arg(long, value_name = "MODE", default_value = "auto", value_parser = ["auto", "quads", "triangles"])]
+    pub quads: String,
+    /// Also measure the sampled symmetric Hausdorff and RMS distance from input to output.
+    #[arg(long)]
+    pub measure: bool,
+    /// Print the report as JSON on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Output format, when OUT's extension does not say: ply, obj, off, stl.
+    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
+    pub to: Option<Format>,
+    /// Write text instead of binary (PLY, STL).
+    #[arg(long)]
+    pub ascii: bool,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+fn parse_ratio(s: &str) -> anyhow::Result<f64> {
+    let r: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number"))?;
+    if !(r > 0.0 && r <= 1.0) {
+        bail!("the ratio must be in (0, 1]");
+    }
+    Ok(r)
+}
+
+fn parse_error(s: &str) -> anyhow::Result<ErrorBound> {
+    let s = s.trim();
+    let (num, relative) = match s.strip_suffix('%') {
+        Some(n) => (n, true),
+        None => (s, false),
+    };
+    let v: f64 = num.trim().parse().with_context(|| format!("'{s}' is not a number (or a percentage like 0.1%)"))?;
+    if !(v >= 0.0 && v.is_finite()) {
+        bail!("the error bound must be zero or positive");
+    }
+    Ok(if relative { ErrorBound::Relative(v / 100.0) } else { ErrorBound::Absolute(v) })
+}
+
+/// The JSON report.
+#[derive(Debug, Serialize)]
+struct Report {
+    input: String,
+    output: String,
+    mode: &'static str,
+    input_faces: usize,
+    output_faces: usize,
+    output_vertices: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    decimate: Option<octowrap_decimate::DecimateReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cut: Option<octowrap_decimate::CutReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    measured: Option<octowrap_decimate::metrics::Distance>,
+    seconds: f64,
+}
+
+/// Runs the command.
+#[allow(clippy::print_stdout)]
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let mrq_out = args.to.is_none() && mrq::has_mrq_extension(&args.output);
+    let to = args.to.or_else(|| Format::from_path(&args.output));
+    if !mrq_out {
+        let Some(to) = to else {
+            bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
+        };
+        if !to.writable() || !to.holds_faces() {
+            bail!("{to} cannot hold a decimated mesh; write ply, obj, off, stl or mrq");
+        }
+    }
+    let mrq_in = mrq::is_mrq(&args.input);
+    let cut = mrq_in
+        && (args.view.is_some() || (args.max_error.is_some() && args.target_faces.is_none() && args.ratio.is_none()));
+    if args.view.is_some() && !mrq_in {
+        bail!(
+            "--view cuts an MRQ hierarchy; '{}' is not an MRQ file (use --ratio or --max-error)",
+            args.input.display()
+        );
+    }
+    let (input, hierarchy) = if mrq_in {
+        let h = mrq::read(&args.input, None)?.hierarchy;
+        let Some(finest) = h.levels.last() else { bail!("{} holds no levels", args.input.display()) };
+        (finest.mesh.clone(), Some(h))
+    } else {
+        (args.input_args.read(&args.input)?, None)
+    };
+    if input.faces.is_empty() {
+        bail!("{} has no faces: decimation needs a mesh, not a point cloud", args.input.display());
+    }
+    let start = std::time::Instant::now();
+    let (mesh, mut report) = if cut {
+        let h = hierarchy.as_ref().context("hierarchy")?;
+        run_cut(args, h, &input)?
+    } else {
+        run_decimate(args, &input)?
+    };
+    report.seconds = start.elapsed().as_secs_f64();
+    if args.measure {
+        let pb = progress::spinner("measuring the distance to the input");
+        let d = distance(&input, &mesh, &Sampling::default());
+        pb.finish_and_clear();
+        report.measured = Some(d);
+    }
+    write(args, mrq_out, to, &mesh)?;
+    print_summary(&report, input.vertices.bounds().diagonal());
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_decimate(args: &Args, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
+    let mut opts = DecimateOptions::default();
+    opts.target_faces =
+        args.target_faces.or_else(|| args.ratio.map(|r| ((input.faces.len() as f64 * r).round() as usize).max(1)));
+    opts.max_error = args.max_error;
+    opts.lock_border = args.lock_border;
+    opts.quads = match args.quads.as_str() {
+        "quads" => QuadMode::Quads,
+        "triangles" => QuadMode::Triangles,
+        _ => QuadMode::Auto,
+    };
+    let pb = progress::spinner(format!("decimating {} faces", input.faces.len()));
+    let out = octowrap_decimate::decimate_with_progress(input, &opts, &mut |live| {
+        pb.set_message(format!("decimating: {live} triangles left"));
+    });
+    pb.finish_and_clear();
+    let out = out.with_context(|| format!("decimating {}", args.input.display()))?;
+    let report = Report {
+        input: args.input.display().to_string(),
+        output: args.output.display().to_string(),
+        mode: "decimate",
+        input_faces: input.faces.len(),
+        output_faces: out.mesh.faces.len(),
+        output_vertices: out.mesh.vertex_count(),
+        decimate: Some(out.report),
+        cut: None,
+        measured: None,
+        seconds: 0.0,
+    };
+    Ok((out.mesh, report))
+}
+
+fn run_cut(args: &Args, h: &Hierarchy, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
+    let criterion = if let Some(path) = &args.view {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        CutCriterion::View(Camera::from_json(&text).with_context(|| format!("reading {}", path.display()))?)
+    } else {
+        let e = match args.max_error {
+            Some(ErrorBound::Absolute(e)) => e,
+            Some(ErrorBound::Relative(r)) => r * input.vertices.bounds().diagonal(),
+            None => bail!("a hierarchy cut needs --max-error or --view"),
+        };
+        CutCriterion::MaxError(e)
+    };
+    let pb = progress::spinner(format!("cutting {} levels", h.levels.len()));
+    let out = octowrap_decimate::cut(h, &criterion);
+    pb.finish_and_clear();
+    let out = out.with_context(|| format!("cutting {}", args.input.display()))?;
+    let report = Report {
+        input: args.input.display().to_string(),
+        output: args.output.display().to_string(),
+        mode: "cut",
+        input_faces: input.faces.len(),
+        output_faces: out.mesh.faces.len(),
+        output_vertices: out.mesh.vertex_count(),
+        decimate: None,
+        cut: Some(out.report),
+        measured: None,
+        seconds: 0.0,
+    };
+    Ok((out.mesh, report))
+}
+
+fn write(args: &Args, mrq_out: bool, to: Option<Format>, mesh: &Mesh) -> anyhow::Result<()> {
+    if mrq_out {
+        let h = Hierarchy::single(mesh.clone());
+        let opts = octowrap_format::EncodeOptions::with_quantization(octowrap_format::Quantization::Exact);
+        return mrq::write(&args.output, &h, &opts);
+    }
+    let mut opts = WriteOptions::default();
+    opts.format = to;
+    opts.ascii = args.ascii;
+    octowrap_io::write_path(&args.output, mesh, &opts).with_context(|| format!("writing {}", args.output.display()))
+}
+
+#[allow(clippy::print_stderr)]
+fn print_summary(r: &Report, diagonal: f64) {
+    let pct = |x: f64| if diagonal > 0.0 { 100.0 * x / diagonal } else { 0.0 };
+    eprintln!(
+        "{}: {} -> {} faces, {} vertices, {:.3} s",
+        Path::new(&r.output).display(),
+        r.input_faces,
+        r.output_faces,
+        r.output_vertices,
+        r.seconds
+    );
+    if let Some(d) = &r.decimate {
+        eprintln!(
+            "  error reached {:.6e} ({:.4}% of the diagonal); stopped: {}; {} collapses in {} passes{}",
+            d.error,
+            100.0 * d.relative_error,
+            serde_json::to_value(d.stop).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default(),
+            d.collapses,
+            d.passes,
+            if d.frozen_vertices > 0 {
+                format!("; {} non-manifold vertices left untouched", d.frozen_vertices)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if let Some(c) = &r.cut {
+        let levels: Vec<String> = c.faces_per_level.iter().map(ToString::to_string).collect();
+        eprintln!(
+            "  faces per level (coarsest first): {}; largest error used {:.6e} ({:.4}% of the diagonal)",
+            levels.join(" "),
+            c.max_error,
+            pct(c.max_error)
+        );
+    }
+    if let Some(m) = &r.measured {
+        eprintln!(
+            "  measured: Hausdorff {:.6e} ({:.4}%), RMS {:.6e} ({:.4}%)",
+            m.hausdorff,
+            pct(m.hausdorff),
+            m.rms,
+            pct(m.rms)
+        );
+    }
+}

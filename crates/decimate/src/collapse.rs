@@ -1,0 +1,510 @@
+//! Quadric-error edge collapse on a triangle list, in passes.
+//!
+//! Sources: Garland & Heckbert, "Surface Simplification Using Quadric Error Metrics" (SIGGRAPH
+//! 1997): §4 (pair contraction), §5 (quadrics, optimal placement with a fallback on the edge);
+//! Dey, Edelsbrunner, Guha, Nekhayev, "Topology Preserving Edge Contraction" (1999): the link
+//! condition; Kapoulkine, meshoptimizer `src/simplifier.cpp`: area-weighted quadrics normalized by
+//! their weight, boundary quadrics, and collapses applied in passes over a sorted candidate list
+//! with each vertex touched at most once per pass (what makes the candidate costs exact and the
+//! work parallel).
+//!
+//! One pass: (1) every edge gets a collapse candidate (which endpoint goes, where the kept one
+//! moves, the quadric error there), in parallel; (2) candidates are sorted by `(error, kept,
+//! removed)`, a total order, so the result does not depend on the thread count; (3) candidates are
+//! applied in order, each after the link condition, the boundary rules and the normal-flip test on
+//! the current mesh, until the triangle target, the error bound, or 1.5 times the error of the
+//! candidate that would reach the target (so that one pass does not spend cheap and dear collapses
+//! alike). A vertex kept or removed in a pass takes no further part in that pass.
+
+use octowrap_geom::DVec3;
+use rayon::prelude::*;
+
+use crate::quadric::Quadric;
+
+/// What a vertex may do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Kind {
+    /// One closed fan: may be removed into any neighbour, or keep and move.
+    Interior,
+    /// One open fan (on a boundary): removed only along a boundary edge into a border vertex.
+    Border,
+    /// On a boundary with `lock_border`: never moves, never removed; interior neighbours may be
+    /// removed into it.
+    Locked,
+    /// Non-manifold, or on a non-manifold, mis-oriented or degenerate face: untouched, and no
+    /// edge at it collapses, so the defect stays exactly as it was.
+    Frozen,
+}
+
+/// Why decimation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stop {
+    /// The face target was reached.
+    TargetReached,
+    /// Every remaining collapse would exceed the error bound.
+    ErrorBound,
+    /// No remaining collapse keeps the mesh manifold and unflipped.
+    NoValidCollapse,
+}
+
+/// Vertex → incident triangles, compressed rows.
+pub(crate) struct Csr {
+    off: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Csr {
+    pub(crate) fn build(n: usize, tris: &[[u32; 3]]) -> Self {
+        let mut off = vec![0u32; n + 1];
+        for t in tris {
+            for &v in t {
+                off[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            off[i + 1] += off[i];
+        }
+        let mut fill = off.clone();
+        let mut items = vec![0u32; off[n] as usize];
+        for (ti, t) in tris.iter().enumerate() {
+            for &v in t {
+                let slot = &mut fill[v as usize];
+                items[*slot as usize] = ti as u32;
+                *slot += 1;
+            }
+        }
+        Self { off, items }
+    }
+
+    pub(crate) fn of(&self, v: u32) -> &[u32] {
+        &self.items[self.off[v as usize] as usize..self.off[v as usize + 1] as usize]
+    }
+}
+
+/// Whether some triangle at `from` has the directed edge `from → to`.
+fn has_half_edge(adj: &Csr, tris: &[[u32; 3]], from: u32, to: u32) -> bool {
+    adj.of(from).iter().any(|&t| {
+        let tri = tris[t as usize];
+        (0..3).any(|k| tri[k] == from && tri[(k + 1) % 3] == to)
+    })
+}
+
+/// The vertex kinds: a vertex is `Interior` or `Border` when its incident triangles are
+/// non-degenerate, use every edge at the vertex at most once per direction, and form one fan.
+pub(crate) fn classify(n: usize, tris: &[[u32; 3]], adj: &Csr, lock_border: bool) -> Vec<Kind> {
+    (0..n as u32)
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(link, prevs), v| {
+                let ts = adj.of(v);
+                if ts.is_empty() {
+                    return Kind::Interior;
+                }
+                // The link of v: for each triangle, the edge next -> prev opposite v.
+                let (link, prevs): (&mut Vec<(u32, u32)>, &mut Vec<u32>) = (link, prevs);
+                link.clear();
+                prevs.clear();
+                for &t in ts {
+                    let tri = tris[t as usize];
+                    let k = tri.iter().position(|&x| x == v).unwrap_or(0);
+                    let (next, prev) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+                    if next == v || prev == v || next == prev {
+                        return Kind::Frozen;
+                    }
+                    link.push((next, prev));
+                }
+                link.sort_unstable();
+                prevs.extend(link.iter().map(|e| e.1));
+                prevs.sort_unstable();
+                if link.windows(2).any(|w| w[0].0 == w[1].0) || prevs.windows(2).any(|w| w[0] == w[1]) {
+                    return Kind::Frozen;
+                }
+                // Paths start at link vertices with no incoming link edge.
+                let mut starts = link.iter().map(|e| e.0).filter(|x| prevs.binary_search(x).is_err());
+                let (first, open) = (starts.next(), starts.next());
+                if open.is_some() {
+                    return Kind::Frozen;
+                }
+                let starts = first;
+                let mut at = starts.unwrap_or(link[0].0);
+                let mut steps = 0;
+                while let Ok(i) = link.binary_search_by_key(&at, |e| e.0) {
+                    steps += 1;
+                    at = link[i].1;
+                    if steps > link.len() || (starts.is_none() && at == link[0].0) {
+                        break;
+                    }
+                }
+                match (steps == link.len(), starts.is_none()) {
+                    (false, _) => Kind::Frozen,
+                    (true, true) => Kind::Interior,
+                    (true, false) if lock_border => Kind::Locked,
+                    (true, false) => Kind::Border,
+                }
+            },
+        )
+        .collect()
+}
+
+/// Weight of the boundary planes, relative to the squared edge length.
+const BOUNDARY_WEIGHT: f64 = 2.0;
+
+/// Area-weighted face-plane quadrics, plus the plane through each boundary edge perpendicular to
+/// its face.
+fn vertex_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, kind: &[Kind]) -> Vec<Quadric> {
+    let face: Vec<(Quadric, DVec3)> = tris
+        .par_iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            let n = (b - a).cross(c - a);
+            let len = n.length();
+            if len > 0.0 {
+                let u = n / len;
+                (Quadric::plane_through(a, u, len * 0.5), u)
+            } else {
+                (Quadric::default(), DVec3::ZERO)
+            }
+        })
+        .collect();
+    (0..pos.len() as u32)
+        .into_par_iter()
+        .map(|v| {
+            let mut q = Quadric::default();
+            for &t in adj.of(v) {
+                let (fq, normal) = &face[t as usize];
+                q.add(fq);
+                // Only border (and frozen) vertices can lie on a boundary edge.
+                if kind[v as usize] == Kind::Interior {
+                    continue;
+                }
+                let tri = tris[t as usize];
+                for k in 0..3 {
+                    let (x, y) = (tri[k], tri[(k + 1) % 3]);
+                    if (x == v || y == v) && !has_half_edge(adj, tris, y, x) {
+                        let e = pos[y as usize] - pos[x as usize];
+                        let m = e.cross(*normal).normalize_or_zero();
+                        if m != DVec3::ZERO {
+                            q.add(&Quadric::plane_through(pos[x as usize], m, BOUNDARY_WEIGHT * e.length_squared()));
+                        }
+                    }
+                }
+            }
+            q
+        })
+        .collect()
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    cost: f64,
+    keep: u32,
+    remove: u32,
+    to: DVec3,
+}
+
+/// The result of [`run`].
+pub(crate) struct Outcome {
+    /// The remaining triangles, over the input's vertex numbering.
+    pub tris: Vec<[u32; 3]>,
+    /// Positions by input vertex number (moved ones updated).
+    pub pos: Vec<DVec3>,
+    /// The largest error (mean squared distance) of an applied collapse.
+    pub max_cost: f64,
+    pub collapses: usize,
+    pub passes: usize,
+    pub frozen: usize,
+    pub stop: Stop,
+}
+
+/// Collapses edges of `tris` until at most `target` triangles remain or every collapse would cost
+/// more than `max_cost`. `progress` gets the live triangle count after each pass.
+pub(crate) fn run(
+    mut pos: Vec<DVec3>,
+    mut tris: Vec<[u32; 3]>,
+    lock_border: bool,
+    target: usize,
+    max_cost: f64,
+    progress: &mut dyn FnMut(usize),
+) -> Outcome {
+    let n = pos.len();
+    let mut adj = Csr::build(n, &tris);
+    let kind = classify(n, &tris, &adj, lock_border);
+    let frozen = kind.iter().filter(|&&k| k == Kind::Frozen).count();
+    let mut quadrics = vertex_quadrics(&pos, &tris, &adj, &kind);
+    let mut touched = vec![0u32; n];
+    let mut scratch = Marks { mark: vec![0; n], stamp: 0 };
+    let (mut reached, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
+    let stop = loop {
+        if tris.len() <= target {
+            break Stop::TargetReached;
+        }
+        passes += 1;
+        let pass = passes as u32;
+        // One entry per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
+        // sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
+        // whatever the thread count. Over-bound edges are marked with OVER.
+        const NONE: u64 = u64::MAX;
+        const OVER: u64 = u64::MAX - 1;
+        let mut order: Vec<(u64, u32, u32)> = (0..tris.len() * 3)
+            .into_par_iter()
+            .map(|h| {
+                let tri = tris[h / 3];
+                let (i, j) = (tri[h % 3], tri[(h + 1) % 3]);
+                match edge_candidate(&pos, &quadrics, &kind, &adj, &tris, i, j, true) {
+                    Some(c) if c.cost <= max_cost => (c.cost.to_bits(), c.keep, c.remove),
+                    Some(_) => (OVER, 0, 0),
+                    None => (NONE, 0, 0),
+                }
+            })
+            .collect();
+        let over_bound = order.par_iter().any(|e| e.0 == OVER);
+        order.retain(|e| e.0 < OVER);
+        order.par_sort_unstable();
+        let goal = (tris.len() - target).div_ceil(2);
+        let mut limit = order.get(goal).map_or(f64::INFINITY, |o| f64::from_bits(o.0) * 1.5).min(max_cost);
+        let mut live = tris.len();
+        let mut dead = vec![false; tris.len()];
+        let mut applied = 0;
+        for &(bits, a, b) in &order {
+            let cost = f64::from_bits(bits);
+            if live <= target {
+                break;
+            }
+            if cost > limit {
+                // Nothing cheap was valid: take the dearer candidates rather than stop.
+                if applied == 0 && limit < max_cost {
+                    limit = max_cost;
+                } else {
+                    break;
+                }
+            }
+            if touched[a as usize] == pass || touched[b as usize] == pass {
+                continue;
+            }
+            // Neither end has changed since the candidate was made, so this gives it back exactly.
+            let Some(c) = edge_candidate(&pos, &quadrics, &kind, &adj, &tris, a.min(b), a.max(b), false) else {
+                continue;
+            };
+            let view = View { pos: &pos, tris: &tris, adj: &adj, dead: &dead, kind: &kind };
+            if c.keep != a || !view.can_collapse(a, b, c.to, &mut scratch) {
+                continue;
+            }
+            for &t in adj.of(b) {
+                let t = t as usize;
+                if dead[t] {
+                    continue;
+                }
+                if tris[t].contains(&a) {
+                    dead[t] = true;
+                    live -= 1;
+                } else {
+                    for v in &mut tris[t] {
+                        if *v == b {
+                            *v = a;
+                        }
+                    }
+                }
+            }
+            pos[a as usize] = c.to;
+            quadrics[a as usize] = quadrics[a as usize].sum(&quadrics[b as usize]);
+            touched[a as usize] = pass;
+            touched[b as usize] = pass;
+            reached = reached.max(cost);
+            applied += 1;
+        }
+        collapses += applied;
+        let mut i = 0;
+        tris.retain(|_| {
+            i += 1;
+            !dead[i - 1]
+        });
+        progress(tris.len());
+        if applied == 0 {
+            break if over_bound { Stop::ErrorBound } else { Stop::NoValidCollapse };
+        }
+        adj = Csr::build(n, &tris);
+    };
+    Outcome { tris, pos, max_cost: reached, collapses, passes, frozen, stop }
+}
+
+/// The candidate of edge `i-j`. With `half_edge`, `i -> j` is a half-edge of the mesh and the
+/// candidate is made only once per edge: from its half-edge with `i < j`, or from its only one.
+#[allow(clippy::too_many_arguments)]
+fn edge_candidate(
+    pos: &[DVec3],
+    quadrics: &[Quadric],
+    kind: &[Kind],
+    adj: &Csr,
+    tris: &[[u32; 3]],
+    i: u32,
+    j: u32,
+    half_edge: bool,
+) -> Option<Candidate> {
+    // A boundary edge joins two non-interior vertices: skip the search otherwise.
+    let interior = kind[i as usize] == Kind::Interior || kind[j as usize] == Kind::Interior;
+    let boundary = !interior && !(has_half_edge(adj, tris, i, j) && has_half_edge(adj, tris, j, i));
+    if half_edge && i > j && !boundary {
+        return None;
+    }
+    candidate(pos, quadrics, kind, i.min(j), i.max(j), boundary)
+}
+
+/// Where the collapse of edge `i-j` (`i < j`) would put the kept vertex, and at what error.
+fn candidate(pos: &[DVec3], quadrics: &[Quadric], kind: &[Kind], i: u32, j: u32, boundary: bool) -> Option<Candidate> {
+    use Kind::{Border, Interior, Locked};
+    let (ki, kj) = (kind[i as usize], kind[j as usize]);
+    // May x be removed into y?
+    let can = |x: Kind, y: Kind| match (x, y) {
+        (Interior, Interior | Border | Locked) => true,
+        (Border, Border | Locked) => boundary,
+        _ => false,
+    };
+    let (pi, pj) = (pos[i as usize], pos[j as usize]);
+    let q = quadrics[i as usize].sum(&quadrics[j as usize]);
+    let (keep, remove, to) = match (can(ki, kj), can(kj, ki)) {
+        (true, true) => {
+            let to = if ki == Interior {
+                q.optimum()
+                    .filter(|p| p.distance(0.5 * (pi + pj)) <= pi.distance(pj))
+                    .unwrap_or_else(|| q.segment_optimum(pi, pj))
+            } else {
+                q.segment_optimum(pi, pj)
+            };
+            (i.min(j), i.max(j), to)
+        }
+        (true, false) => (j, i, pj),
+        (false, true) => (i, j, pi),
+        (false, false) => return None,
+    };
+    let cost = q.error(to);
+    cost.is_finite().then_some(Candidate { cost, keep, remove, to })
+}
+
+/// Per-vertex stamps for the neighbourhood tests (reset when the stamp would wrap).
+struct Marks {
+    mark: Vec<u32>,
+    stamp: u32,
+}
+
+impl Marks {
+    fn next(&mut self) -> u32 {
+        if self.stamp > u32::MAX - 8 {
+            self.mark.fill(0);
+            self.stamp = 0;
+        }
+        self.stamp += 3;
+        self.stamp
+    }
+}
+
+/// The mesh during a pass.
+struct View<'a> {
+    pos: &'a [DVec3],
+    tris: &'a [[u32; 3]],
+    adj: &'a Csr,
+    dead: &'a [bool],
+    kind: &'a [Kind],
+}
+
+impl View<'_> {
+    fn live(&self, v: u32) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.adj.of(v).iter().filter(|&&t| !self.dead[t as usize]).map(|&t| self.tris[t as usize])
+    }
+
+    /// Whether removing `b` into `a` (moved to `to`) keeps the mesh manifold and unflipped: the
+    /// edge has one or two triangles with distinct apexes; the common neighbours of `a` and `b`
+    /// are exactly those apexes (the link condition); two border vertices join only along a
+    /// boundary edge; the joined vertex keeps at least 3 neighbours (2 on a border), so no
+    /// component shrinks to a double-sided sliver; no surviving triangle around `a` or `b` turns
+    /// its normal by 90 degrees or more.
+    fn can_collapse(&self, a: u32, b: u32, to: DVec3, marks: &mut Marks) -> bool {
+        let s = marks.next();
+        let mark = &mut marks.mark;
+        let mut shared = 0usize;
+        let mut apex = [u32::MAX; 2];
+        let mut degree = 0usize;
+        for tri in self.live(b) {
+            if tri.contains(&a) {
+                if shared < 2 {
+                    apex[shared] = tri.into_iter().find(|&v| v != a && v != b).unwrap_or(u32::MAX);
+                }
+                shared += 1;
+            }
+            for v in tri {
+                if v != b && v != a && mark[v as usize] != s {
+                    mark[v as usize] = s;
+                    degree += 1;
+                }
+            }
+        }
+        if shared == 0 || shared > 2 || (shared == 2 && apex[0] == apex[1]) {
+            return false;
+        }
+        let (ka, kb) = (self.kind[a as usize], self.kind[b as usize]);
+        let border = ka != Kind::Interior || kb != Kind::Interior;
+        if ka != Kind::Interior && kb != Kind::Interior && shared != 1 {
+            return false;
+        }
+        let mut common = 0usize;
+        for tri in self.live(a) {
+            for v in tri {
+                if v == a || v == b {
+                    continue;
+                }
+                let m = &mut mark[v as usize];
+                if *m == s {
+                    if !apex.contains(&v) {
+                        return false;
+                    }
+                    *m = s + 1;
+                    common += 1;
+                } else if *m != s + 1 && *m != s + 2 {
+                    *m = s + 2;
+                    degree += 1;
+                }
+            }
+        }
+        if common != shared || degree < if border { 2 } else { 3 } {
+            return false;
+        }
+        let flips = |v: u32, tri: [u32; 3]| {
+            let p = |i: u32| self.pos[i as usize];
+            let (x, y, z) = (p(tri[0]), p(tri[1]), p(tri[2]));
+            let before = (y - x).cross(z - x);
+            let q = |i: u32| if i == v { to } else { p(i) };
+            let (x, y, z) = (q(tri[0]), q(tri[1]), q(tri[2]));
+            let after = (y - x).cross(z - x);
+            before != DVec3::ZERO && before.dot(after) <= 1e-4 * before.length() * after.length()
+        };
+        if self.live(b).any(|t| !t.contains(&a) && flips(b, t)) {
+            return false;
+        }
+        to == self.pos[a as usize] || !self.live(a).any(|t| !t.contains(&b) && flips(a, t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_of_a_fan_a_strip_and_a_bowtie() {
+        // A closed fan around 0 (a pyramid seen from the apex) is interior at 0.
+        let tris = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+        let adj = Csr::build(5, &tris);
+        let k = classify(5, &tris, &adj, false);
+        assert_eq!(k[0], Kind::Interior);
+        assert_eq!(k[1], Kind::Border);
+        assert_eq!(classify(5, &tris, &adj, true)[1], Kind::Locked);
+        // Two triangles touching at vertex 0 only: a bow-tie, frozen.
+        let bow = [[0, 1, 2], [0, 3, 4]];
+        let adj = Csr::build(5, &bow);
+        assert_eq!(classify(5, &bow, &adj, false)[0], Kind::Frozen);
+        // A flipped neighbour: edge 0-1 used twice in the same direction.
+        let flip = [[0, 1, 2], [0, 1, 3]];
+        let adj = Csr::build(4, &flip);
+        assert_eq!(classify(4, &flip, &adj, false)[0], Kind::Frozen);
+    }
+}

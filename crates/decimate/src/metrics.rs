@@ -1,0 +1,351 @@
+//! Distances between two surfaces: sampled symmetric Hausdorff and RMS distance, in the manner of
+//! Metro (Cignoni, Rocchini, Scopigno, "Metro: measuring error on simplified surfaces", 1998).
+//!
+//! # Definition
+//! Both meshes are taken as their triangles ([`Mesh::triangles`]). The samples of a mesh are
+//! * every vertex used by a face, and
+//! * per triangle `t` of area `Aₜ`, the centroids of the `n²` congruent sub-triangles of its
+//!   `n`-fold regular subdivision, `n = ⌈√(S · Aₜ / A)⌉`, where `A` is the total area and `S` is
+//!   [`Sampling::samples`]: about `S` samples spread evenly by area, at least one per triangle.
+//!   Each carries the weight `Aₜ / n²`.
+//!
+//! The one-sided distance from `X` to `Y` measures, for every sample `p` of `X`, the exact
+//! Euclidean distance `d(p, Y)` to the nearest point of `Y`'s triangles (a bounding-volume
+//! hierarchy over `Y`, exact point-triangle distance). Its **maximum** is taken over all samples;
+//! its **RMS** is `√(Σ w d² / Σ w)` over the face samples (area-weighted, vertices unweighted).
+//! The **symmetric** Hausdorff distance is the larger of the two one-sided maxima, and the
+//! symmetric RMS the larger of the two one-sided RMS values (Metro's convention).
+//!
+//! Sampling is a lower bound on the true Hausdorff distance that tightens as `S` grows.
+//! Results are deterministic: samples are generated in face order, distances computed in
+//! parallel into an ordered array and summed in order, so the thread count does not change a bit.
+//!
+//! ```
+//! use octowrap_decimate::metrics::{distance, Sampling};
+//! use octowrap_mesh::{FaceList, Mesh};
+//! use octowrap_geom::DVec3;
+//!
+//! let square = |z: f64| {
+//!     let mut m = Mesh::from_positions(vec![
+//!         DVec3::new(0.0, 0.0, z), DVec3::new(1.0, 0.0, z), DVec3::new(1.0, 1.0, z), DVec3::new(0.0, 1.0, z),
+//!     ]);
+//!     m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+//!     m
+//! };
+//! let d = distance(&square(0.0), &square(0.25), &Sampling::default());
+//! assert!((d.hausdorff - 0.25).abs() < 1e-12);
+//! assert!((d.rms - 0.25).abs() < 1e-12);
+//! ```
+
+use octowrap_geom::{Aabb, DVec3};
+use octowrap_mesh::Mesh;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// How densely to sample (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Sampling {
+    /// Approximate number of area samples per mesh, besides the vertices. Default 200,000.
+    pub samples: usize,
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Self { samples: 200_000 }
+    }
+}
+
+impl Sampling {
+    /// About `samples` area samples per mesh.
+    pub fn with_samples(samples: usize) -> Self {
+        Self { samples }
+    }
+}
+
+/// Distances from one mesh to another (see the module docs), in the meshes' units.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct OneSided {
+    /// Largest sample distance.
+    pub max: f64,
+    /// Area-weighted RMS of the face-sample distances.
+    pub rms: f64,
+    /// Area-weighted mean of the face-sample distances.
+    pub mean: f64,
+    /// Samples measured (vertices and face samples).
+    pub samples: usize,
+}
+
+/// The symmetric distances between two meshes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Distance {
+    /// `max(a_to_b.max, b_to_a.max)`.
+    pub hausdorff: f64,
+    /// `max(a_to_b.rms, b_to_a.rms)`.
+    pub rms: f64,
+    /// From the first mesh to the second.
+    pub a_to_b: OneSided,
+    /// From the second mesh to the first.
+    pub b_to_a: OneSided,
+}
+
+/// The symmetric sampled distance between `a` and `b`. A mesh without faces has no samples and
+/// no surface: distances to it are infinite, from it zero.
+pub fn distance(a: &Mesh, b: &Mesh, sampling: &Sampling) -> Distance {
+    let (ta, tb) = (Triangles::new(a), Triangles::new(b));
+    let (ba, bb) = (Bvh::new(&ta), Bvh::new(&tb));
+    let a_to_b = one_sided_tris(&ta, &bb, sampling);
+    let b_to_a = one_sided_tris(&tb, &ba, sampling);
+    Distance { hausdorff: a_to_b.max.max(b_to_a.max), rms: a_to_b.rms.max(b_to_a.rms), a_to_b, b_to_a }
+}
+
+/// The one-sided sampled distance from `from` to `to`.
+pub fn one_sided(from: &Mesh, to: &Mesh, sampling: &Sampling) -> OneSided {
+    let t = Triangles::new(to);
+    one_sided_tris(&Triangles::new(from), &Bvh::new(&t), sampling)
+}
+
+fn one_sided_tris(from: &Triangles, to: &Bvh<'_>, sampling: &Sampling) -> OneSided {
+    let samples = from.samples(sampling.samples);
+    let d2: Vec<f64> = samples.par_iter().map(|s| to.nearest_squared(s.0)).collect();
+    let (mut max2, mut sum2, mut sum1, mut wsum) = (0.0f64, 0.0, 0.0, 0.0);
+    for (s, d) in samples.iter().zip(&d2) {
+        max2 = max2.max(*d);
+        sum2 += s.1 * d;
+        sum1 += s.1 * d.sqrt();
+        wsum += s.1;
+    }
+    let (rms, mean) = if wsum > 0.0 { ((sum2 / wsum).sqrt(), sum1 / wsum) } else { (0.0, 0.0) };
+    OneSided { max: max2.sqrt(), rms, mean, samples: samples.len() }
+}
+
+/// A mesh's triangles as corner positions.
+pub(crate) struct Triangles {
+    pub(crate) corners: Vec<[DVec3; 3]>,
+    used: Vec<DVec3>,
+}
+
+impl Triangles {
+    pub(crate) fn new(m: &Mesh) -> Self {
+        let p = &m.vertices.positions;
+        let at = |i: u32| p.get(i as usize).copied().unwrap_or(DVec3::ZERO);
+        let tris = m.triangles();
+        let mut seen = vec![false; p.len()];
+        for &i in tris.iter().flatten() {
+            if let Some(s) = seen.get_mut(i as usize) {
+                *s = true;
+            }
+        }
+        let used = p.iter().zip(&seen).filter(|(_, s)| **s).map(|(q, _)| *q).collect();
+        Self { corners: tris.iter().map(|t| t.map(at)).collect(), used }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn from_corners(corners: Vec<[DVec3; 3]>) -> Self {
+        let used = corners.iter().flatten().copied().collect();
+        Self { corners, used }
+    }
+
+    /// `(point, weight)` samples: the used vertices (weight 0), then the face samples.
+    fn samples(&self, budget: usize) -> Vec<(DVec3, f64)> {
+        let area = |c: &[DVec3; 3]| 0.5 * (c[1] - c[0]).cross(c[2] - c[0]).length();
+        let total: f64 = self.corners.iter().map(area).sum();
+        let mut out: Vec<(DVec3, f64)> = self.used.iter().map(|&p| (p, 0.0)).collect();
+        for c in &self.corners {
+            let a = area(c);
+            let n = if total > 0.0 { (budget as f64 * a / total).sqrt().ceil().clamp(1.0, 4096.0) as u32 } else { 1 };
+            let w = a / f64::from(n * n);
+            let (e1, e2) = ((c[1] - c[0]) / f64::from(n), (c[2] - c[0]) / f64::from(n));
+            for i in 0..n {
+                for j in 0..n - i {
+                    let (fi, fj) = (f64::from(i), f64::from(j));
+                    out.push((c[0] + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0), w));
+                    if i + j + 1 < n {
+                        out.push((c[0] + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0), w));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Squared distance from `p` to triangle `t` (Ericson, "Real-Time Collision Detection", §5.1.5).
+pub(crate) fn point_triangle_squared(p: DVec3, t: &[DVec3; 3]) -> f64 {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (p - (a + ab * v)).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (p - (a + ac * w)).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length_squared();
+    }
+    let denom = va + vb + vc;
+    if denom.abs() <= 0.0 || !denom.is_finite() {
+        // Degenerate triangle: the nearest of its three edges.
+        return seg2(p, a, b).min(seg2(p, b, c)).min(seg2(p, c, a));
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    (p - (a + ab * v + ac * w)).length_squared()
+}
+
+fn seg2(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let d = b - a;
+    let l = d.length_squared();
+    let t = if l > 0.0 { ((p - a).dot(d) / l).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + d * t)).length_squared()
+}
+
+/// A bounding-volume hierarchy over triangles: binary, split at the median centroid along the
+/// longest axis, leaves of up to 4 triangles.
+pub(crate) struct Bvh<'a> {
+    tris: &'a Triangles,
+    nodes: Vec<Node>,
+    order: Vec<u32>,
+}
+
+struct Node {
+    bounds: Aabb,
+    /// Leaf: `first..first + count` in `order`; inner (`count == 0`): children `first`, `first + 1`.
+    first: u32,
+    count: u32,
+}
+
+const LEAF: usize = 4;
+
+impl<'a> Bvh<'a> {
+    pub(crate) fn new(tris: &'a Triangles) -> Self {
+        let mut order: Vec<u32> = (0..tris.corners.len() as u32).collect();
+        let centroid: Vec<DVec3> = tris.corners.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+        let mut nodes = vec![Node { bounds: Aabb::default(), first: 0, count: 0 }];
+        let mut stack = vec![(0usize, 0usize, order.len())];
+        while let Some((node, lo, hi)) = stack.pop() {
+            let mut b = Aabb::default();
+            for &t in &order[lo..hi] {
+                for &p in &tris.corners[t as usize] {
+                    b.grow(p);
+                }
+            }
+            nodes[node].bounds = b;
+            if hi - lo <= LEAF {
+                nodes[node].first = lo as u32;
+                nodes[node].count = (hi - lo) as u32;
+                continue;
+            }
+            let size = b.size();
+            let axis = if size.x >= size.y && size.x >= size.z {
+                0
+            } else if size.y >= size.z {
+                1
+            } else {
+                2
+            };
+            let mid = lo + (hi - lo) / 2;
+            order[lo..hi].select_nth_unstable_by(mid - lo, |&x, &y| {
+                centroid[x as usize][axis].total_cmp(&centroid[y as usize][axis]).then(x.cmp(&y))
+            });
+            let first = nodes.len();
+            nodes.push(Node { bounds: Aabb::default(), first: 0, count: 0 });
+            nodes.push(Node { bounds: Aabb::default(), first: 0, count: 0 });
+            nodes[node].first = first as u32;
+            stack.push((first, lo, mid));
+            stack.push((first + 1, mid, hi));
+        }
+        Self { tris, nodes, order }
+    }
+
+    /// Squared distance from `p` to the nearest triangle (infinite when there are none).
+    pub(crate) fn nearest_squared(&self, p: DVec3) -> f64 {
+        if self.order.is_empty() {
+            return f64::INFINITY;
+        }
+        let box2 = |b: &Aabb| {
+            let d = (b.min - p).max(p - b.max).max(DVec3::ZERO);
+            d.length_squared()
+        };
+        let mut best = f64::INFINITY;
+        let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+        stack.push((0, box2(&self.nodes[0].bounds)));
+        while let Some((i, d)) = stack.pop() {
+            if d >= best {
+                continue;
+            }
+            let n = &self.nodes[i as usize];
+            if n.count > 0 {
+                for &t in &self.order[n.first as usize..(n.first + n.count) as usize] {
+                    best = best.min(point_triangle_squared(p, &self.tris.corners[t as usize]));
+                }
+                continue;
+            }
+            let (l, r) = (n.first, n.first + 1);
+            let (dl, dr) = (box2(&self.nodes[l as usize].bounds), box2(&self.nodes[r as usize].bounds));
+            // Visit the nearer child first: push it last.
+            if dl <= dr {
+                stack.push((r, dr));
+                stack.push((l, dl));
+            } else {
+                stack.push((l, dl));
+                stack.push((r, dr));
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_triangle_regions() {
+        let t = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        assert!((point_triangle_squared(DVec3::new(0.2, 0.2, 1.0), &t) - 1.0).abs() < 1e-15);
+        assert!((point_triangle_squared(DVec3::new(-1.0, -1.0, 0.0), &t) - 2.0).abs() < 1e-15);
+        assert!((point_triangle_squared(DVec3::new(1.0, 1.0, 0.0), &t) - 0.5).abs() < 1e-15);
+        assert!((point_triangle_squared(DVec3::new(0.5, -2.0, 0.0), &t) - 4.0).abs() < 1e-15);
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        assert!((point_triangle_squared(DVec3::new(1.0, 1.0, 0.0), &flat) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bvh_agrees_with_brute_force() {
+        let mut rng = octowrap_geom::SplitMix64::new(7);
+        let mut r = || rng.f64();
+        let corners: Vec<[DVec3; 3]> = (0..300)
+            .map(|_| {
+                let c = DVec3::new(r(), r(), r());
+                [c, c + DVec3::new(r(), r(), r()) * 0.1, c + DVec3::new(r(), r(), r()) * 0.1]
+            })
+            .collect();
+        let tris = Triangles::from_corners(corners);
+        let bvh = Bvh::new(&tris);
+        for _ in 0..200 {
+            let p = DVec3::new(r(), r(), r()) * 1.4 - 0.2;
+            let brute = tris.corners.iter().map(|c| point_triangle_squared(p, c)).fold(f64::INFINITY, f64::min);
+            assert_eq!(bvh.nearest_squared(p), brute);
+        }
+    }
+}
