@@ -5,8 +5,6 @@
 //! A slot key packs a voxel's Morton code and a side: `code << 3 | side`, sides numbered
 //! `0..6 = +X, -X, +Y, -Y, +Z, -Z` (the numbering of [`octowrap_mesh::LevelLattice`]).
 
-use octowrap_geom::morton;
-
 /// Deepest supported level: slot keys need `3 * level + 3` bits.
 pub(crate) const MAX_LEVEL: u32 = 20;
 
@@ -57,20 +55,32 @@ pub(crate) fn unslot(key: u64) -> (u64, Side) {
     (key >> 3, (key & 7) as u8)
 }
 
-/// Voxel coordinates of `code` moved by `delta`, if still inside `[0, 2^level)^3`.
+/// The bits of axis 0 in a Morton code (every third bit from bit 0).
+const AXIS_BITS: u64 = 0x1249_2492_4924_9249;
+
+/// Voxel coordinates of `code` moved by `delta` (each component in `-1..=1`), if still inside
+/// `[0, 2^level)^3`. Steps are taken on the interleaved bits directly: adding one to an axis
+/// fills the other axes' bits with ones so the carry runs through them; subtracting one borrows
+/// through zeros in the same way. No decoding, so the neighbour look-ups of every stage stay
+/// cheap.
 #[inline]
 pub(crate) fn offset(code: u64, delta: [i32; 3], level: u32) -> Option<u64> {
-    let c = morton::decode(code);
-    let n = 1i64 << level;
-    let mut out = [0u32; 3];
-    for i in 0..3 {
-        let v = i64::from(c[i]) + i64::from(delta[i]);
-        if v < 0 || v >= n {
-            return None;
-        }
-        out[i] = v as u32;
+    debug_assert!(delta.iter().all(|d| (-1..=1).contains(d)));
+    let all = if level >= 21 { u64::MAX >> 1 } else { (1u64 << (3 * level)) - 1 };
+    let mut out = code;
+    for (a, &d) in delta.iter().enumerate() {
+        let mask = (AXIS_BITS << a) & all;
+        let bits = out & mask;
+        let moved = match d {
+            0 => continue,
+            1 if bits == mask => return None,
+            1 => ((bits | !mask).wrapping_add(1 << a)) & mask,
+            _ if bits == 0 => return None,
+            _ => bits.wrapping_sub(1 << a) & mask,
+        };
+        out = (out & !mask) | moved;
     }
-    Some(morton::encode(out[0], out[1], out[2]))
+    Some(out)
 }
 
 /// In-plane corner offsets `(b, c)` of a face on a positive / negative side, counter-clockwise
@@ -186,7 +196,34 @@ pub(crate) fn pair_key(a: u64, b: u64) -> (u64, u64) {
 
 #[cfg(test)]
 mod tests {
+    use octowrap_geom::morton;
+
     use super::*;
+
+    #[test]
+    fn offsets_match_decoded_arithmetic() {
+        let mut seed = 7u64;
+        for level in [1u32, 2, 3, 7, 10, 20] {
+            let n = 1i64 << level;
+            for _ in 0..2000 {
+                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                let c: [u32; 3] = std::array::from_fn(|a| {
+                    let r = (seed >> (8 + 16 * a)) as i64 & 0xffff;
+                    // Edges of the range are the interesting cases.
+                    [0, n - 1, r % n][(seed >> (60 - a)) as usize % 3] as u32
+                });
+                let code = morton::encode(c[0], c[1], c[2]);
+                for delta in crate::octree::BLOCK {
+                    let want = (0..3).map(|a| i64::from(c[a]) + i64::from(delta[a])).collect::<Vec<_>>();
+                    let want = want
+                        .iter()
+                        .all(|v| (0..n).contains(v))
+                        .then(|| morton::encode(want[0] as u32, want[1] as u32, want[2] as u32));
+                    assert_eq!(offset(code, delta, level), want, "level {level} {c:?} {delta:?}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn corners_are_counter_clockwise_seen_from_outside() {

@@ -419,8 +419,9 @@ pub fn reconstruct_with(
         part_times.push(t.elapsed());
     }
     let t = Instant::now();
-    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback).
-    tree.finish(trusted);
+    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback);
+    // child offsets on the levels the mapping of subdivided levels queries.
+    tree.finish(trusted, if finest > trusted { trusted.saturating_sub(1) } else { u32::MAX });
     part_times[trusted as usize] += t.elapsed();
 
     let mut levels: Vec<Level> = Vec::new();
@@ -558,6 +559,11 @@ pub fn reconstruct_with(
             mapping::map_free(&tree, j, &mut next.positions)
         };
         rep.timings.mapping = t.elapsed();
+        if j == finest {
+            // The points and voxels are no longer needed: free them before the relaxation's
+            // buffers and the output's conversions (this keeps the finest level's peak down).
+            tree.release();
+        }
         // §3.6.1: relaxation.
         stage(Stage::Relaxation);
         let t = Instant::now();

@@ -27,7 +27,7 @@ use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
 use crate::lattice::offset;
-use crate::octree::{BLOCK, Cells, Octree};
+use crate::octree::{BLOCK, Cells, NO_SUB, Octree};
 
 /// A fitted tangent plane, in local coordinates, kept compact (`f32`: 2^-24 of the root cube,
 /// far below any voxel) for the relaxation; the mapping itself projects in `f64`.
@@ -256,12 +256,20 @@ fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Fewest points in a voxel for [`gather_ball`] to test its children's reach first (below, the
+/// eight tests cost more than the points they skip).
+const CHILD_MIN: usize = 24;
+
+/// Padding of voxel boxes in the reach test of [`gather_ball`] (local units).
+const PAD: f64 = 1.0 / (1u64 << 20) as f64;
+
 /// Sums the points within `radius` of `x` from the 2x2x2 voxels of `cells` around the lattice
 /// corner nearest to `x`; complete when `radius` is at most half a voxel.
 fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Moments) {
     let h = cells.voxel();
     let n = 1i64 << cells.level;
     let c = (x / h).round();
+    let r2 = radius * radius;
     for dz in -1..=0i64 {
         for dy in -1..=0i64 {
             for dx in -1..=0i64 {
@@ -269,9 +277,63 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
                 if v.iter().any(|&a| a < 0 || a >= n) {
                     continue;
                 }
-                if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
-                    gather(tree, cells, i, x, radius, m);
+                // Skip voxels out of reach before looking them up: the ball around a vertex near
+                // an edge midpoint, face or cell centre of this level's lattice reaches only 4, 2
+                // or 1 of the 8. The box is padded by 2^-20 (points are `f32`, 2^-24 of the
+                // cube, and may stick out of their voxel by that much), so no point within
+                // `radius` is ever skipped and the sums are the same as without the test.
+                let mut d2 = 0.0;
+                for a in 0..3 {
+                    let lo = v[a] as f64 * h - PAD;
+                    let t = (lo - x[a]).max(x[a] - (lo + h + 2.0 * PAD)).max(0.0);
+                    d2 += t * t;
                 }
+                if d2 >= r2 {
+                    continue;
+                }
+                if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
+                    match cells.sub.get(i) {
+                        Some(&sub) if sub != NO_SUB && cells.range(i).len() >= CHILD_MIN => {
+                            gather_children(tree, cells, i, sub, v, x, r2, m);
+                        }
+                        _ => gather(tree, cells, i, x, radius, m),
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Like [`gather`] on voxel `i` (coordinates `v`), but skipping the children out of reach (their
+/// boxes padded like the voxels' in [`gather_ball`]); `sub` packs the children's offsets
+/// ([`Cells::sub`]). Points are visited in the same order, so the sums are the same.
+#[allow(clippy::too_many_arguments)] // the hot loop's state, passed flat
+#[inline]
+fn gather_children(tree: &Octree, cells: &Cells, i: usize, sub: u64, v: [i64; 3], x: DVec3, r2: f64, m: &mut Moments) {
+    let h = cells.voxel();
+    let half = 0.5 * h;
+    // Squared distance along each axis from x to the lower and the upper half of the voxel.
+    let mut t2 = [[0.0f64; 2]; 3];
+    for a in 0..3 {
+        for (k, t) in t2[a].iter_mut().enumerate() {
+            let lo = v[a] as f64 * h + k as f64 * half - PAD;
+            let d = (lo - x[a]).max(x[a] - (lo + half + 2.0 * PAD)).max(0.0);
+            *t = d * d;
+        }
+    }
+    let range = cells.range(i);
+    let len = range.len();
+    let pts = &tree.points[range];
+    for o in 0..8usize {
+        let s = ((sub >> (8 * o)) & 0xff) as usize;
+        let e = if o == 7 { len } else { ((sub >> (8 * (o + 1))) & 0xff) as usize };
+        if s == e || t2[0][o & 1] + t2[1][(o >> 1) & 1] + t2[2][o >> 2] >= r2 {
+            continue;
+        }
+        for p in &pts[s..e] {
+            let d = p.as_dvec3() - x;
+            if d.length_squared() < r2 {
+                m.add(d);
             }
         }
     }

@@ -1,0 +1,128 @@
+//! Times the large case: the dragon resampled to 4.3 M points (built by the bench, cached
+//! as raw `f64` triples in a file) reconstructed to level 10. For profiling:
+//! `cargo run --release -p octowrap-recon --example big -- /tmp/pts.bin`, where the file is
+//! written on first use from `../shared/data/stanford-dragon/dragon_vrip.ply.gz`.
+#![allow(clippy::print_stdout, clippy::print_stderr)]
+
+use std::time::Instant;
+
+use octowrap_geom::DVec3;
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+
+/// Area-uniform samples of the dragon with Gaussian noise of `sigma` (the bench's generator).
+fn resample(mesh: &octowrap_mesh::Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
+    let p = &mesh.vertices.positions;
+    let tris: Vec<[DVec3; 3]> = mesh
+        .faces
+        .iter()
+        .filter(|f| f.len() >= 3)
+        .map(|f| [p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]])
+        .collect();
+    let mut cum = Vec::with_capacity(tris.len());
+    let mut total = 0.0;
+    for t in &tris {
+        total += (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+        cum.push(total);
+    }
+    (0..n)
+        .map(|i| {
+            let mut s = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+            let mut next = || {
+                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = s;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let k = cum.partition_point(|&c| c < next() * total).min(tris.len() - 1);
+            let (mut u, mut v) = (next(), next());
+            if u + v > 1.0 {
+                u = 1.0 - u;
+                v = 1.0 - v;
+            }
+            let t = &tris[k];
+            let mut g = || {
+                let (a, b) = (next().max(1e-300), next());
+                (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+            };
+            let noise = DVec3::new(g(), g(), g()) * sigma;
+            t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v + noise
+        })
+        .collect()
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let cache = args.next().unwrap_or_else(|| "/tmp/octowrap-big.bin".into());
+    let level: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(10);
+    let pts: Vec<DVec3> = if let Ok(bytes) = std::fs::read(&cache) {
+        bytes
+            .chunks_exact(24)
+            .map(|c| {
+                let f = |i: usize| f64::from_le_bytes(c[8 * i..8 * i + 8].try_into().unwrap_or_default());
+                DVec3::new(f(0), f(1), f(2))
+            })
+            .collect()
+    } else {
+        let path = "/work/shared/data/stanford-dragon/dragon_vrip.ply.gz";
+        let m = octowrap_io::read_path(path.as_ref(), &octowrap_io::ReadOptions::default()).expect("dragon");
+        let diag = m.vertices.bounds().diagonal();
+        // A cache named `*raw*` holds the dragon's own vertices (a smaller case for profiling).
+        let pts =
+            if cache.contains("raw") { m.vertices.positions.clone() } else { resample(&m, 4_300_000, 2e-4 * diag) };
+        let bytes: Vec<u8> = pts.iter().flat_map(|p| [p.x, p.y, p.z]).flat_map(f64::to_le_bytes).collect();
+        let _ = std::fs::write(&cache, bytes);
+        pts
+    };
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(level);
+    let t = Instant::now();
+    // OCTOWRAP_HWM=1: the peak resident memory so far at the start of every stage.
+    let hwm = std::env::var_os("OCTOWRAP_HWM").is_some();
+    let status = |field: &str| -> String {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| s.lines().find(|l| l.starts_with(field)).map(str::to_owned))
+            .unwrap_or_default()
+    };
+    let r = reconstruct_with(&pts, &o, &mut |p| {
+        if hwm {
+            eprintln!("{:?} {} {}", p.stage, p.level, status("VmHWM:"));
+        }
+    })
+    .expect("reconstructs");
+    if hwm {
+        eprintln!("end {} {}", status("VmHWM:"), status("VmRSS:"));
+    }
+    let secs = t.elapsed().as_secs_f64();
+    for l in &r.levels {
+        let t = &l.timings;
+        println!(
+            "{:2} {:?} {:8} part {:.3} reg {:.3} irr {:.3} map {:.3} relax {:.3} total {:.3}",
+            l.level,
+            l.kind,
+            l.faces,
+            t.partitioning.as_secs_f64(),
+            t.regular.as_secs_f64(),
+            t.irregular.as_secs_f64(),
+            t.mapping.as_secs_f64(),
+            t.relaxation.as_secs_f64(),
+            t.total().as_secs_f64()
+        );
+    }
+    // A checksum of the output, to compare runs.
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for l in &r.hierarchy.levels {
+        for p in &l.mesh.vertices.positions {
+            for v in [p.x, p.y, p.z] {
+                h = (h ^ v.to_bits()).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+        for f in l.mesh.faces.iter() {
+            for &v in f {
+                h = (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    }
+    println!("total {secs:.3} s, checksum {h:016x}");
+}
