@@ -3,6 +3,7 @@
 //! Figures go to `tools/bench/RESULTS.md` with their date.
 #![allow(clippy::print_stdout, clippy::print_stderr)]
 
+mod decimate;
 mod format;
 mod io;
 mod recon;
@@ -27,5 +28,8 @@ fn main() {
     }
     if run("validate") {
         validate::report();
+    }
+    if run("decimate") {
+        decimate::report();
     }
 }
