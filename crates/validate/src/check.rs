@@ -1,44 +1,63 @@
 //! The mesh checks, over the raw indexed face list.
 //!
-//! Edges are found by bucketing half-edges on their smaller vertex (a counting sort, O(corners)),
-//! then sorting each small bucket; fans by union-find over face corners joined across shared
-//! edges; components by union-find over vertices joined by faces. Everything is deterministic:
-//! no hash-map order reaches the report.
+//! One counting sort puts every corner of a usable face into its vertex's *ring*, as the pair
+//! (previous vertex, next vertex) of its face. Everything topological is then decided vertex by
+//! vertex from that ring alone, which the sort laid out contiguously:
+//!
+//! * an edge `{v, x}` at `v` has one side per ring entry whose next vertex is `x` (the face runs
+//!   `v → x`) and one per entry whose previous vertex is `x` (`x → v`), so its valence and its
+//!   orientation conflicts are read off the ring of its smaller vertex;
+//! * the fans of `v` are the classes of its corners joined through shared edges.
+//!
+//! Most vertices of most meshes are regular: stepping from each corner to the corner across its
+//! incoming edge walks the whole ring once. [`regular_ring`] recognises such a vertex with a few
+//! compares and decides it directly; any other vertex goes through [`general_ring`], which sorts
+//! the ring's edge sides and joins corners with a small union-find. Both give the same answer
+//! wherever both apply: a test runs the general path on every vertex and compares, and another
+//! compares the whole report with a plain edge-sorting implementation on random broken meshes.
+//!
+//! Components come from a union-find over vertices joined by edges; duplicate faces from the
+//! vertices where two corners have the same two neighbours. Only what is irregular is kept per
+//! vertex, so a clean mesh costs little memory. Everything is deterministic: no hash-map order
+//! reaches the report, and lists come out in vertex or face order.
 
-use octowrap_mesh::Mesh;
+use octowrap_geom::DVec3;
+use octowrap_mesh::{FaceList, Mesh};
 
 use crate::report::{Code, Component, Counts, Element, Finding, MeshReport, Properties};
 use crate::{Options, dsu::Dsu};
 
-/// One face side of an edge: the corner where it starts and whether it runs from the smaller
-/// vertex to the larger.
-#[derive(Clone, Copy)]
-struct Side {
-    other: u32,
-    face: u32,
-    forward: bool,
-    /// Corner index (into the face list's index array) of the side's smaller vertex.
-    corner_lo: u32,
-    /// Corner index of the larger vertex.
-    corner_hi: u32,
+/// The edge defects counted at a vertex (on edges where it is the smaller vertex).
+#[derive(Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct EdgeTally {
+    pub(crate) boundary: u32,
+    pub(crate) non_manifold: u32,
+    pub(crate) conflicts: u32,
 }
 
-/// Edge counts attributed to an edge's smaller vertex, summed per component later.
-#[derive(Clone, Copy, Default)]
-struct EdgeTally {
-    edges: u32,
-    boundary: u32,
-    non_manifold: u32,
-    conflicts: u32,
+/// Per-vertex results for the components: edge counts, and the vertices with defects.
+pub(crate) struct VertexTallies {
+    /// Edges at each vertex, as their smaller vertex.
+    pub(crate) edges: Vec<u32>,
+    /// Vertices with boundary, non-manifold or conflicting edges (as the smaller vertex), ascending.
+    pub(crate) irregular: Vec<(u32, EdgeTally)>,
+    /// Vertices with more than one fan, ascending.
+    pub(crate) non_manifold: Vec<u32>,
 }
 
-struct Collector {
-    cap: usize,
-    findings: Vec<Finding>,
+pub(crate) struct Collector {
+    pub(crate) cap: usize,
+    pub(crate) findings: Vec<Finding>,
 }
 
 impl Collector {
-    fn add(&mut self, code: Code, elements: impl IntoIterator<Item = Element>, count: usize, message: String) {
+    pub(crate) fn add(
+        &mut self,
+        code: Code,
+        elements: impl IntoIterator<Item = Element>,
+        count: usize,
+        message: String,
+    ) {
         if count == 0 {
             return;
         }
@@ -47,21 +66,142 @@ impl Collector {
     }
 }
 
-/// Runs every check on `mesh` (already welded if asked). One pass per check, in report order; the
-/// passes share the face-usability, edge and union-find arrays, hence one long function.
-#[allow(clippy::too_many_lines)]
+/// One corner in its vertex's ring: the previous and the next vertex of its face. (A plain
+/// array, so that the ring's allocation comes zeroed from the system instead of being filled.)
+type RingEntry = [u32; 2];
+
+/// The largest ring [`regular_ring`] looks at; larger rings take the general path.
+const LANES: usize = 32;
+/// "No corner" in [`regular_ring`]'s tables.
+const NONE: u8 = u8::MAX;
+
+/// What the edge walk found, in report order.
+#[derive(Default)]
+struct EdgeFindings {
+    edge_count: usize,
+    boundary: Vec<Element>,
+    non_manifold: Vec<Element>,
+    conflicts: Vec<Element>,
+    conflict_count: usize,
+}
+
+/// The state of the walk over the rings.
+struct Walk {
+    tallies: VertexTallies,
+    /// The current vertex's defects, pushed to `tallies.irregular` when it is done.
+    current: EdgeTally,
+    /// Root of the current vertex's component.
+    root: usize,
+    comp: Dsu,
+    boundary_vertices: Option<(Dsu, Vec<bool>)>,
+    /// Vertices where two corners have the same two neighbours: where duplicate faces can be.
+    duplicate_candidates: Vec<u32>,
+    found: EdgeFindings,
+    /// Scratch for the general path, reused across vertices.
+    sides: Vec<u64>,
+    local: Dsu,
+    keys: Vec<u64>,
+}
+
+impl Walk {
+    /// Records the edge `{v, x}` (with `v < x`) and its sides: `fwd` run `v → x`, `bwd` run `x → v`.
+    fn edge(&mut self, v: u32, x: u32, fwd: usize, bwd: usize) {
+        self.tallies.edges[v as usize] += 1;
+        self.found.edge_count += 1;
+        self.root = self.comp.union_root(self.root, x as usize);
+        if fwd == 1 && bwd == 1 {
+            return;
+        }
+        let e = Element::Edge(v, x);
+        let t = &mut self.current;
+        match fwd + bwd {
+            1 => {
+                t.boundary += 1;
+                self.found.boundary.push(e);
+                let n = self.tallies.edges.len();
+                let (dsu, on) = self.boundary_vertices.get_or_insert_with(|| (Dsu::new(n), vec![false; n]));
+                dsu.union(v as usize, x as usize);
+                on[v as usize] = true;
+                on[x as usize] = true;
+            }
+            2 => {}
+            _ => {
+                t.non_manifold += 1;
+                self.found.non_manifold.push(e);
+            }
+        }
+        let c = usize::from(fwd > 1) + usize::from(bwd > 1);
+        if c > 0 {
+            t.conflicts += c as u32;
+            self.found.conflicts.push(e);
+            self.found.conflict_count += c;
+        }
+    }
+}
+
+/// Calls `body(face index, face)` for every face; with `K > 0` every face has `K` corners, which
+/// the compiler then knows.
+#[allow(clippy::inline_always)] // Measured: without it the face passes are not specialised.
+#[inline(always)]
+fn for_each_face<const K: usize>(faces: &FaceList, mut body: impl FnMut(usize, &[u32])) {
+    let idx = faces.indices();
+    if K == 0 {
+        for (f, w) in faces.offsets().windows(2).enumerate() {
+            body(f, &idx[w[0] as usize..w[1] as usize]);
+        }
+    } else {
+        for (f, face) in idx.chunks_exact(K.max(1)).enumerate() {
+            body(f, face);
+        }
+    }
+}
+
+/// 3 or 4 when every face has that many corners, else 0.
+pub(crate) fn arity(faces: &FaceList) -> usize {
+    let corners = faces.corner_count();
+    if corners == 3 * faces.len() && faces.all_triangles() {
+        3
+    } else if corners == 4 * faces.len() && faces.all_quads() {
+        4
+    } else {
+        0
+    }
+}
+
+/// Runs `for_each_face` with the face size fixed where the mesh allows (see [`arity`]).
+macro_rules! faces_by_arity {
+    ($faces:expr, $arity:expr, $body:expr) => {{
+        match $arity {
+            3 => for_each_face::<3>($faces, $body),
+            4 => for_each_face::<4>($faces, $body),
+            _ => for_each_face::<0>($faces, $body),
+        }
+    }};
+}
+
+/// Runs every check on `mesh` (already welded if asked).
 pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
+    check_with(mesh, opts, welded_vertices, false)
+}
+
+/// [`check`], optionally with every vertex through the general path (for the tests). One pass
+/// per check, in report order; the passes share the face-usability and ring arrays, hence one
+/// long function.
+#[allow(clippy::too_many_lines)]
+pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, general_only: bool) -> MeshReport {
     let n = mesh.vertex_count();
     let faces = &mesh.faces;
-    let idx = faces.indices();
-    let offs = faces.offsets();
+    let arity = arity(faces);
+    let p = &mesh.vertices.positions;
     let mut counts = Counts::default();
     let mut out = Collector { cap: opts.max_elements, findings: Vec::new() };
 
-    // Face-level checks; `usable[f]` marks faces that take part in the topology.
+    // Face-level checks; `usable[f]` marks faces that take part in the topology. The same pass
+    // counts each vertex's corners (into `ring_end[v]`) and tests usable faces for zero area.
     let mut usable = vec![true; faces.len()];
-    let (mut short, mut range, mut degen) = (Vec::new(), Vec::new(), Vec::new());
-    for (f, face) in faces.iter().enumerate() {
+    let (mut short, mut range, mut degen, mut zero) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut ring_end = vec![0u32; n + 1];
+    faces_by_arity!(faces, arity, |f, face: &[u32]| {
         if face.len() < 3 {
             short.push(f as u32);
             usable[f] = false;
@@ -73,8 +213,15 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             // sides would make a spurious non-manifold edge a-b.
             degen.push(f as u32);
             usable[f] = false;
+        } else {
+            for &i in face {
+                ring_end[i as usize] += 1;
+            }
+            if zero_area(p, face) {
+                zero.push(f as u32);
+            }
         }
-    }
+    });
     counts.short_faces = short.len();
     counts.out_of_range_faces = range.len();
     counts.degenerate_faces = degen.len();
@@ -98,7 +245,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     );
 
     // Vertex checks.
-    let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !mesh.vertices.positions[v as usize].is_finite()).collect();
+    let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !p[v as usize].is_finite()).collect();
     counts.non_finite_vertices = non_finite.len();
     out.add(
         Code::NonFiniteVertex,
@@ -106,15 +253,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         non_finite.len(),
         format!("vertices with NaN or infinite coordinates: {}", non_finite.len()),
     );
-    let mut used = vec![false; n];
-    for (f, face) in faces.iter().enumerate() {
-        if usable[f] {
-            for &i in face {
-                used[i as usize] = true;
-            }
-        }
-    }
-    let unused: Vec<u32> = (0..n as u32).filter(|&v| !used[v as usize]).collect();
+    let unused: Vec<u32> = (0..n as u32).filter(|&v| ring_end[v as usize] == 0).collect();
     counts.unused_vertices = unused.len();
     out.add(
         Code::UnusedVertex,
@@ -122,7 +261,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         unused.len(),
         format!("vertices used by no face: {}", unused.len()),
     );
-    let dup_vertices = duplicate_vertices(mesh);
+    let dup_vertices = duplicate_vertices(p);
     counts.duplicate_vertices = dup_vertices.len();
     out.add(
         Code::DuplicateVertex,
@@ -130,10 +269,6 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         dup_vertices.len(),
         format!("vertices at the exact position of an earlier vertex: {}", dup_vertices.len()),
     );
-
-    // Zero-area and duplicate faces.
-    let zero: Vec<u32> =
-        (0..faces.len()).filter(|&f| usable[f] && zero_area(mesh, faces.face(f))).map(|f| f as u32).collect();
     counts.zero_area_faces = zero.len();
     out.add(
         Code::ZeroAreaFace,
@@ -141,103 +276,64 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         zero.len(),
         format!("faces of zero area: {}", zero.len()),
     );
-    // Half-edges bucketed by their smaller vertex.
-    let mut bucket_len = vec![0u32; n + 1];
-    for (f, w) in offs.windows(2).enumerate() {
-        if !usable[f] {
-            continue;
-        }
-        let (s, e) = (w[0] as usize, w[1] as usize);
-        for c in s..e {
-            let (a, b) = (idx[c], idx[if c + 1 == e { s } else { c + 1 }]);
-            if a != b {
-                bucket_len[a.min(b) as usize + 1] += 1;
-            }
-        }
-    }
-    for v in 0..n {
-        bucket_len[v + 1] += bucket_len[v];
-    }
-    let starts = bucket_len;
-    let mut fill = starts.clone();
-    let mut sides = vec![Side { other: 0, face: 0, forward: false, corner_lo: 0, corner_hi: 0 }; starts[n] as usize];
-    for (f, w) in offs.windows(2).enumerate() {
-        if !usable[f] {
-            continue;
-        }
-        let (s, e) = (w[0] as usize, w[1] as usize);
-        for c in s..e {
-            let c2 = if c + 1 == e { s } else { c + 1 };
-            let (a, b) = (idx[c], idx[c2]);
-            if a == b {
-                continue;
-            }
-            let (lo, hi, forward, clo, chi) = if a < b { (a, b, true, c, c2) } else { (b, a, false, c2, c) };
-            let slot = &mut fill[lo as usize];
-            sides[*slot as usize] =
-                Side { other: hi, face: f as u32, forward, corner_lo: clo as u32, corner_hi: chi as u32 };
-            *slot += 1;
-        }
-    }
 
-    // Walk edges: valence, orientation, fan unions, components, duplicate faces.
-    let mut corners = Dsu::new(idx.len());
-    let mut comp = Dsu::new(n);
-    let mut duplicate = vec![false; faces.len()];
-    let mut boundary_vertices = Dsu::new(n);
-    let mut is_boundary_vertex = vec![false; n];
-    let (mut boundary, mut nm_edges, mut conflicts) = (Vec::new(), Vec::new(), Vec::new());
-    let mut edge_count = 0usize;
-    // Per-vertex edge data for the components, keyed by the edge's smaller vertex.
-    let mut edges_at = vec![EdgeTally::default(); n];
-    for lo in 0..n {
-        let bucket = &mut sides[starts[lo] as usize..starts[lo + 1] as usize];
-        sort_sides(bucket);
-        let mut i = 0;
-        while i < bucket.len() {
-            let hi = bucket[i].other;
-            let mut j = i;
-            while j < bucket.len() && bucket[j].other == hi {
-                j += 1;
+    // The rings: a counting sort of the usable faces' corners by vertex. After the running sum
+    // `ring_end[v]` is the end of v's ring; filling each ring from its end leaves it at the
+    // ring's start, so `ring_end[v]..ring_end[v + 1]` is v's (and `ring_end[n]` the total).
+    for v in 0..n {
+        ring_end[v + 1] += ring_end[v];
+    }
+    let mut ring: Vec<RingEntry> = vec![[0; 2]; ring_end[n] as usize];
+    {
+        let fill = &mut ring_end[..n];
+        faces_by_arity!(faces, arity, |f, face: &[u32]| {
+            if !usable[f] {
+                return;
             }
-            let group = &bucket[i..j];
-            let e = Element::Edge(lo as u32, hi);
-            comp.union(lo, hi as usize);
-            if group.len() > 1 {
-                mark_duplicates(group, faces, &mut duplicate);
+            let k = face.len();
+            let mut prev = face[k - 1];
+            for (j, &v) in face.iter().enumerate() {
+                let next = face[if j + 1 == k { 0 } else { j + 1 }];
+                let slot = &mut fill[v as usize];
+                *slot -= 1;
+                ring[*slot as usize] = [prev, next];
+                prev = v;
             }
-            edge_count += 1;
-            edges_at[lo].edges += 1;
-            match group.len() {
-                1 => {
-                    boundary.push(e);
-                    edges_at[lo].boundary += 1;
-                    is_boundary_vertex[lo] = true;
-                    is_boundary_vertex[hi as usize] = true;
-                    boundary_vertices.union(lo, hi as usize);
-                }
-                2 => {}
-                _ => {
-                    nm_edges.push(e);
-                    edges_at[lo].non_manifold += 1;
-                }
-            }
-            let fwd = group.iter().filter(|s| s.forward).count();
-            let bwd = group.len() - fwd;
-            let c = usize::from(fwd > 1) + usize::from(bwd > 1);
-            if c > 0 {
-                conflicts.push(e);
-                counts.orientation_conflicts += c;
-                edges_at[lo].conflicts += c as u32;
-            }
-            for w in group.windows(2) {
-                corners.union(w[0].corner_lo as usize, w[1].corner_lo as usize);
-                corners.union(w[0].corner_hi as usize, w[1].corner_hi as usize);
-            }
-            i = j;
+        });
+    }
+    let ring_start = ring_end;
+
+    // Walk the rings: edges (valence, orientation), fans, components, duplicate-face candidates.
+    let mut walk = Walk {
+        tallies: VertexTallies { edges: vec![0; n], irregular: Vec::new(), non_manifold: Vec::new() },
+        current: EdgeTally::default(),
+        root: 0,
+        comp: Dsu::new(n),
+        boundary_vertices: None,
+        duplicate_candidates: Vec::new(),
+        found: EdgeFindings::default(),
+        sides: Vec::new(),
+        local: Dsu::new(0),
+        keys: Vec::new(),
+    };
+    for v in 0..n {
+        let r = &ring[ring_start[v] as usize..ring_start[v + 1] as usize];
+        if r.is_empty() {
+            continue;
+        }
+        walk.root = walk.comp.find(v);
+        let v = v as u32;
+        if general_only || !regular_ring(v, r, &mut walk) {
+            general_ring(v, r, &mut walk);
+        }
+        if walk.current != EdgeTally::default() {
+            walk.tallies.irregular.push((v, std::mem::take(&mut walk.current)));
         }
     }
-    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| duplicate[f as usize]).collect();
+    drop(ring);
+    let Walk { tallies, mut comp, boundary_vertices, duplicate_candidates, found, .. } = walk;
+
+    let dup_faces = duplicate_faces(faces, &usable, n, &duplicate_candidates);
     counts.duplicate_faces = dup_faces.len();
     out.add(
         Code::DuplicateFace,
@@ -245,37 +341,26 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         dup_faces.len(),
         format!("faces repeating an earlier face (same vertex cycle, either way round): {}", dup_faces.len()),
     );
-    counts.boundary_edges = boundary.len();
-    counts.non_manifold_edges = nm_edges.len();
+    counts.boundary_edges = found.boundary.len();
+    counts.non_manifold_edges = found.non_manifold.len();
+    counts.orientation_conflicts = found.conflict_count;
     out.add(
         Code::NonManifoldEdge,
-        nm_edges.iter().copied(),
-        nm_edges.len(),
-        format!("edges shared by more than two faces: {}", nm_edges.len()),
+        found.non_manifold.iter().copied(),
+        found.non_manifold.len(),
+        format!("edges shared by more than two faces: {}", found.non_manifold.len()),
     );
-    let conflict_edges = conflicts.len();
+    let conflict_edges = found.conflicts.len();
     out.add(
         Code::Orientation,
-        conflicts,
+        found.conflicts,
         counts.orientation_conflicts,
         format!(
             "directed edges used by two faces, where neighbours disagree on orientation: {} (on {conflict_edges} edge(s))",
             counts.orientation_conflicts
         ),
     );
-
-    // Fans: a used vertex is manifold when all its corners join into one fan.
-    let mut fans = vec![0u32; n];
-    for (f, w) in offs.windows(2).enumerate() {
-        if usable[f] {
-            for c in w[0] as usize..w[1] as usize {
-                if corners.find(c) == c {
-                    fans[idx[c] as usize] += 1;
-                }
-            }
-        }
-    }
-    let nm_vertices: Vec<u32> = (0..n as u32).filter(|&v| fans[v as usize] > 1).collect();
+    let nm_vertices = &tallies.non_manifold;
     counts.non_manifold_vertices = nm_vertices.len();
     out.add(
         Code::NonManifoldVertex,
@@ -285,21 +370,41 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     );
 
     // Boundary loops: connected chains of boundary edges.
-    counts.boundary_loops = (0..n).filter(|&v| is_boundary_vertex[v] && boundary_vertices.find(v) == v).count();
+    counts.boundary_loops = match boundary_vertices {
+        Some((mut dsu, on)) => (0..n).filter(|&v| on[v] && dsu.find(v) == v).count(),
+        None => 0,
+    };
     let loops = counts.boundary_loops;
     out.add(
         Code::BoundaryEdge,
-        boundary.iter().copied(),
-        boundary.len(),
-        format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", boundary.len()),
+        found.boundary.iter().copied(),
+        found.boundary.len(),
+        format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", found.boundary.len()),
     );
 
     // Components: vertices joined through edges.
-    let components = components(faces, &usable, &used, &mut comp, &edges_at, &fans);
+    let used: Vec<bool> = ring_start.windows(2).map(|w| w[1] > w[0]).collect();
+    let components = components(faces, arity, Some(&ring_start), &usable, &used, &mut comp, &tallies);
 
     let used_count = used.iter().filter(|&&u| u).count();
     let checked_faces = usable.iter().filter(|&&u| u).count();
-    let euler = used_count as i64 - edge_count as i64 + checked_faces as i64;
+    let euler = used_count as i64 - found.edge_count as i64 + checked_faces as i64;
+    finish(mesh, opts, &usable, counts, out, welded_vertices, found.edge_count, euler, components)
+}
+
+/// Properties, the optional self-intersection test, and the sorted findings: the end of a check.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish(
+    mesh: &Mesh,
+    opts: &Options,
+    usable: &[bool],
+    mut counts: Counts,
+    mut out: Collector,
+    welded_vertices: usize,
+    edges: usize,
+    euler_characteristic: i64,
+    components: Vec<Component>,
+) -> MeshReport {
     let manifold = counts.short_faces == 0
         && counts.out_of_range_faces == 0
         && counts.non_manifold_edges == 0
@@ -316,7 +421,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         intersection_free: None,
     };
     if opts.self_intersections {
-        let pairs = crate::intersect::self_intersections(mesh, &usable);
+        let pairs = crate::intersect::self_intersections(mesh, usable);
         counts.self_intersections = Some(pairs.len());
         properties.intersection_free = Some(pairs.is_empty());
         out.add(
@@ -329,11 +434,11 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     let mut findings = out.findings;
     findings.sort_by_key(|f| (f.severity, Code::ALL.iter().position(|c| *c == f.code)));
     MeshReport {
-        vertices: n,
-        faces: faces.len(),
-        edges: edge_count,
+        vertices: mesh.vertex_count(),
+        faces: mesh.faces.len(),
+        edges,
         welded_vertices,
-        euler_characteristic: euler,
+        euler_characteristic,
         counts,
         properties,
         components,
@@ -341,25 +446,191 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
     }
 }
 
-/// Sorts one vertex's sides by (other vertex, direction, corner): insertion sort for the usual
-/// handful, the standard sort beyond.
-fn sort_sides(bucket: &mut [Side]) {
-    let key = |s: &Side| (s.other, !s.forward, s.corner_lo);
-    if bucket.len() > 16 {
-        bucket.sort_unstable_by_key(key);
-        return;
+/// Decides a regular vertex: stepping from each corner to the corner whose outgoing edge is its
+/// incoming edge walks the whole ring, either round (an interior vertex) or from the one corner
+/// whose outgoing edge is a boundary to the one whose incoming edge is (a boundary vertex). The
+/// step is taken to the *first* such corner and must never reach a corner twice; that alone
+/// proves every neighbour is the next vertex of at most one corner and the previous vertex of at
+/// most one, so the vertex has one fan and each of its edges one side, or two of opposite
+/// directions. Returns false, having recorded nothing, for any other vertex.
+fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
+    let k = r.len();
+    if k > LANES {
+        return false;
     }
-    for i in 1..bucket.len() {
-        let mut j = i;
-        while j > 0 && key(&bucket[j - 1]) > key(&bucket[j]) {
-            bucket.swap(j - 1, j);
-            j -= 1;
+    let mut across = [NONE; LANES];
+    let (mut reached, mut open_in) = (0u32, NONE);
+    for (i, e) in r.iter().enumerate() {
+        match r.iter().position(|o| o[1] == e[0]) {
+            Some(j) => {
+                if reached & 1 << j != 0 {
+                    return false;
+                }
+                reached |= 1 << j;
+                across[i] = j as u8;
+            }
+            None if open_in == NONE => open_in = i as u8,
+            None => return false,
         }
+    }
+    // With an open incoming edge, exactly one corner is never reached: the walk starts there,
+    // and its outgoing edge must be no corner's incoming edge.
+    let first = if open_in == NONE {
+        0
+    } else {
+        let f = (!reached).trailing_zeros() as usize;
+        let x = r[f][1];
+        if r.iter().any(|o| o[0] == x) {
+            return false;
+        }
+        f
+    };
+    let (mut i, mut seen) = (first, 1);
+    loop {
+        let j = across[i];
+        if j == NONE || usize::from(j) == first {
+            break;
+        }
+        i = usize::from(j);
+        seen += 1;
+    }
+    if seen != k {
+        return false;
+    }
+    // Edges at their smaller vertex: every next vertex (two sides, but one for the boundary's
+    // outgoing edge), and the boundary's incoming edge, whose vertex is no next vertex. Boundary
+    // edges are recorded in increasing order of the other vertex, as the report lists them.
+    let (b_in, b_out) = if open_in == NONE { (0, 0) } else { (r[usize::from(open_in)][0], r[first][1]) };
+    let mut interior = 0;
+    for &[_, x] in r {
+        if x > v && (open_in == NONE || x != b_out) {
+            interior += 1;
+            walk.root = walk.comp.union_root(walk.root, x as usize);
+        }
+    }
+    walk.tallies.edges[v as usize] += interior;
+    walk.found.edge_count += interior as usize;
+    if open_in != NONE {
+        let mut open = [(b_in, 0, 1), (b_out, 1, 0)];
+        open.sort_unstable();
+        for (x, fwd, bwd) in open {
+            if x > v {
+                walk.edge(v, x, fwd, bwd);
+            }
+        }
+    } else if k == 2 {
+        // Two faces with one cycle share all their vertices; at a regular vertex they can only
+        // be its two faces (a third face would leave a second fan).
+        walk.duplicate_candidates.push(v);
+    }
+    true
+}
+
+/// Decides any vertex: sorts the edge sides of the ring by neighbour, records the edges at their
+/// smaller vertex, and counts fans as the classes of corners joined through shared edges.
+fn general_ring(v: u32, r: &[RingEntry], walk: &mut Walk) {
+    let k = r.len();
+    // A side as (neighbour, direction, corner position in the ring): v → x first.
+    let mut sides = std::mem::take(&mut walk.sides);
+    sides.clear();
+    for (i, &[prev, next]) in r.iter().enumerate() {
+        sides.push(u64::from(next) << 32 | i as u64);
+        sides.push(u64::from(prev) << 32 | 1 << 31 | i as u64);
+    }
+    sides.sort_unstable();
+    walk.local.reset(k);
+    let mut a = 0;
+    while a < sides.len() {
+        let x = (sides[a] >> 32) as u32;
+        let mut b = a + 1;
+        while b < sides.len() && (sides[b] >> 32) as u32 == x {
+            b += 1;
+        }
+        let group = &sides[a..b];
+        for w in group.windows(2) {
+            walk.local.union((w[0] & 0x7fff_ffff) as usize, (w[1] & 0x7fff_ffff) as usize);
+        }
+        if v < x {
+            let bwd = group.iter().filter(|&&s| s & 1 << 31 != 0).count();
+            walk.edge(v, x, group.len() - bwd, bwd);
+        }
+        a = b;
+    }
+    walk.sides = sides;
+    if (0..k).filter(|&i| walk.local.find(i) == i).count() > 1 {
+        walk.tallies.non_manifold.push(v);
+    }
+    // Duplicate faces: two corners with the same two neighbours, in either order.
+    let mut keys = std::mem::take(&mut walk.keys);
+    keys.clear();
+    keys.extend(r.iter().map(|&[a, b]| u64::from(a.min(b)) << 32 | u64::from(a.max(b))));
+    keys.sort_unstable();
+    if keys.windows(2).any(|w| w[0] == w[1]) {
+        walk.duplicate_candidates.push(v);
+    }
+    walk.keys = keys;
+}
+
+/// The faces that repeat the cycle of an earlier face (same vertex cycle, from any corner, either
+/// way round), ascending. Two such faces meet at each of their vertices with the same two
+/// neighbours, so only the faces at the `candidates` the walk found are compared.
+fn duplicate_faces(faces: &FaceList, usable: &[bool], n: usize, candidates: &[u32]) -> Vec<u32> {
+    if candidates.is_empty() {
+        return Vec::new();
+    }
+    let mut is_candidate = vec![false; n];
+    for &v in candidates {
+        is_candidate[v as usize] = true;
+    }
+    // (vertex, smaller neighbour, larger neighbour, face) for every corner at a candidate.
+    let mut corners: Vec<(u32, u32, u32, u32)> = Vec::new();
+    for (f, face) in faces.iter().enumerate() {
+        if !usable[f] {
+            continue;
+        }
+        let k = face.len();
+        for j in 0..k {
+            let v = face[j];
+            if is_candidate[v as usize] {
+                let (a, b) = (face[(j + k - 1) % k], face[(j + 1) % k]);
+                corners.push((v, a.min(b), a.max(b), f as u32));
+            }
+        }
+    }
+    corners.sort_unstable();
+    let mut dups = Vec::new();
+    let mut cycles: Vec<(Vec<u32>, u32)> = Vec::new();
+    for group in corners.chunk_by(|x, y| (x.0, x.1, x.2) == (y.0, y.1, y.2)) {
+        if group.len() < 2 {
+            continue;
+        }
+        cycles.clear();
+        cycles.extend(group.iter().map(|c| (canonical_cycle(faces.face(c.3 as usize)), c.3)));
+        cycles.sort_unstable();
+        dups.extend(cycles.windows(2).filter(|w| w[0].0 == w[1].0).map(|w| w[1].1));
+    }
+    dups.sort_unstable();
+    dups.dedup();
+    dups
+}
+
+/// The face's cycle from its smallest vertex, toward the smaller of that vertex's two neighbours:
+/// equal for two faces exactly when they are the same cycle up to rotation and reversal.
+fn canonical_cycle(face: &[u32]) -> Vec<u32> {
+    let n = face.len();
+    let s = (0..n).min_by_key(|&i| face[i]).unwrap_or(0);
+    let (fwd, bwd) = (face[(s + 1) % n], face[(s + n - 1) % n]);
+    if fwd <= bwd {
+        (0..n).map(|i| face[(s + i) % n]).collect()
+    } else {
+        (0..n).map(|i| face[(s + n - i) % n]).collect()
     }
 }
 
-fn has_repeat(face: &[u32]) -> bool {
-    if face.len() <= 8 {
+pub(crate) fn has_repeat(face: &[u32]) -> bool {
+    if let &[a, b, c] = face {
+        a == b || b == c || a == c
+    } else if face.len() <= 8 {
         face.iter().enumerate().any(|(i, a)| face[i + 1..].contains(a))
     } else {
         let mut s = face.to_vec();
@@ -370,8 +641,15 @@ fn has_repeat(face: &[u32]) -> bool {
 
 /// Zero area by the vector area (Newell's method), relative to the face's squared size, so the
 /// test does not depend on the model's units.
-fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
-    let p = &mesh.vertices.positions;
+#[allow(clippy::inline_always)] // Measured: not inlined into the face pass otherwise.
+#[inline(always)]
+pub(crate) fn zero_area(p: &[DVec3], face: &[u32]) -> bool {
+    if let &[a, b, c] = face {
+        let o = p[a as usize];
+        let (a, b) = (p[b as usize] - o, p[c as usize] - o);
+        let size2 = a.length_squared().max(b.length_squared());
+        return a.cross(b).length().partial_cmp(&(size2 * 1e-12)) != Some(std::cmp::Ordering::Greater);
+    }
     let o = p[face[0] as usize];
     let mut area = octowrap_geom::DVec3::ZERO;
     let mut size2 = 0.0f64;
@@ -385,67 +663,68 @@ fn zero_area(mesh: &Mesh, face: &[u32]) -> bool {
     area.length().partial_cmp(&(size2 * 1e-12)) != Some(std::cmp::Ordering::Greater)
 }
 
-fn duplicate_vertices(mesh: &Mesh) -> Vec<u32> {
-    use std::hash::BuildHasher;
-    // A table of vertex indices hashed by position: 4 bytes an entry keeps it in cache.
-    let p = &mesh.vertices.positions;
-    let key = |i: u32| {
-        let v = p[i as usize];
-        [v.x + 0.0, v.y + 0.0, v.z + 0.0].map(f64::to_bits)
+/// Vertices at the bit-exact position (`-0.0 = 0.0`) of an earlier vertex, ascending; NaN
+/// positions never match. A first pass marks the hash slots that more than one vertex falls in
+/// (two bit sets of about eight bits per vertex, so they stay in cache); only the vertices in
+/// such slots, a small fraction, go through the exact hash table.
+pub(crate) fn duplicate_vertices(p: &[DVec3]) -> Vec<u32> {
+    let key = |v: DVec3| [v.x + 0.0, v.y + 0.0, v.z + 0.0].map(f64::to_bits);
+    // A multiply-xorshift mix: every input bit reaches the high bits and, by the shift, the low
+    // bits the table uses.
+    let hash = |[x, y, z]: [u64; 3]| {
+        let h = (x ^ y.rotate_left(21) ^ z.rotate_left(42)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        h ^ h >> 29
     };
-    let hash = |k: [u64; 3]| rustc_hash::FxBuildHasher.hash_one(k);
-    let mut table = hashbrown::HashTable::<u32>::with_capacity(p.len());
+    let bits = (p.len() * 8).next_power_of_two().max(64);
+    let slot = |h: u64| (h as usize & (bits - 1), 1u64 << (h & 63));
+    let (mut seen, mut shared) = (vec![0u64; bits / 64], vec![0u64; bits / 64]);
+    let mut any_shared = false;
+    for v in p {
+        if !v.is_nan() {
+            let (i, b) = slot(hash(key(*v)));
+            let again = seen[i >> 6] & b;
+            any_shared |= again != 0;
+            shared[i >> 6] |= again;
+            seen[i >> 6] |= b;
+        }
+    }
+    drop(seen);
     let mut dups = Vec::new();
-    for i in 0..p.len() as u32 {
-        if p[i as usize].is_nan() {
+    if !any_shared {
+        return dups;
+    }
+    let mut table = hashbrown::HashTable::<u32>::new();
+    for (i, v) in p.iter().enumerate() {
+        if v.is_nan() {
             continue;
         }
-        let k = key(i);
-        match table.entry(hash(k), |&j| key(j) == k, |&j| hash(key(j))) {
-            hashbrown::hash_table::Entry::Occupied(_) => dups.push(i),
+        let k = key(*v);
+        let h = hash(k);
+        let (s, b) = slot(h);
+        if shared[s >> 6] & b == 0 {
+            continue;
+        }
+        match table.entry(h, |&j| key(p[j as usize]) == k, |&j| hash(key(p[j as usize]))) {
+            hashbrown::hash_table::Entry::Occupied(_) => dups.push(i as u32),
             hashbrown::hash_table::Entry::Vacant(e) => {
-                e.insert(i);
+                e.insert(i as u32);
             }
         }
     }
     dups
 }
 
-/// Marks the faces of an edge's sides that repeat an earlier face: the same vertex cycle, in
-/// either direction and from any starting corner. Two such faces share every edge, so each face is
-/// compared only at its first edge, with the earlier faces on that edge.
-fn mark_duplicates(group: &[Side], faces: &octowrap_mesh::FaceList, duplicate: &mut [bool]) {
-    let offs = faces.offsets();
-    for x in group {
-        let start = if x.forward { x.corner_lo } else { x.corner_hi };
-        if start != offs[x.face as usize] || duplicate[x.face as usize] {
-            continue;
-        }
-        let fx = faces.face(x.face as usize);
-        if group.iter().any(|y| y.face < x.face && same_cycle(fx, faces.face(y.face as usize))) {
-            duplicate[x.face as usize] = true;
-        }
-    }
-}
-
-/// Whether `a` and `b` are the same cycle of vertices, up to rotation and reversal.
-fn same_cycle(a: &[u32], b: &[u32]) -> bool {
-    let n = a.len();
-    if n != b.len() {
-        return false;
-    }
-    let Some(k) = b.iter().position(|&v| v == a[0]) else { return false };
-    let forward = (0..n).all(|i| a[i] == b[(k + i) % n]);
-    forward || (0..n).all(|i| a[i] == b[(k + n - i) % n])
-}
-
-fn components(
-    faces: &octowrap_mesh::FaceList,
+/// The components, largest first. With `rings` (each vertex's ring offsets) and all faces of
+/// `arity` corners, a component's faces are its corners over `arity`; otherwise they are counted
+/// face by face.
+pub(crate) fn components(
+    faces: &FaceList,
+    arity: usize,
+    rings: Option<&[u32]>,
     usable: &[bool],
     used: &[bool],
     comp: &mut Dsu,
-    edges_at: &[EdgeTally],
-    fans: &[u32],
+    tallies: &VertexTallies,
 ) -> Vec<Component> {
     let n = used.len();
     // Dense component ids in order of first vertex, for determinism.
@@ -458,7 +737,7 @@ fn components(
         let r = comp.find(v);
         if id[r] == u32::MAX {
             id[r] = list.len() as u32;
-            let c = Component {
+            list.push(Component {
                 faces: 0,
                 vertices: 0,
                 edges: 0,
@@ -467,22 +746,38 @@ fn components(
                 closed_manifold: true,
                 oriented: true,
                 genus: None,
-            };
-            list.push(c);
+            });
         }
+        id[v] = id[r];
         let c = &mut list[id[r] as usize];
-        let t = edges_at[v];
         c.vertices += 1;
-        c.edges += t.edges as usize;
+        c.edges += tallies.edges[v] as usize;
+        if let Some(rings) = rings {
+            c.faces += (rings[v + 1] - rings[v]) as usize;
+        }
+    }
+    for &(v, t) in &tallies.irregular {
+        let c = &mut list[id[v as usize] as usize];
         c.boundary_edges += t.boundary as usize;
         c.oriented &= t.conflicts == 0;
-        c.closed_manifold &= fans[v] <= 1 && t.non_manifold == 0;
+        c.closed_manifold &= t.non_manifold == 0;
     }
-    for (f, face) in faces.iter().enumerate() {
-        if usable[f] {
-            let r = comp.find(face[0] as usize);
-            list[id[r] as usize].faces += 1;
+    for &v in &tallies.non_manifold {
+        list[id[v as usize] as usize].closed_manifold = false;
+    }
+    if let (Some(_), 3 | 4) = (rings, arity) {
+        for c in &mut list {
+            c.faces /= arity;
         }
+    } else {
+        for c in &mut list {
+            c.faces = 0;
+        }
+        faces_by_arity!(faces, arity, |f, face: &[u32]| {
+            if usable[f] {
+                list[id[face[0] as usize] as usize].faces += 1;
+            }
+        });
     }
     let mut out: Vec<Component> = list
         .into_iter()
@@ -497,4 +792,148 @@ fn components(
         .collect();
     out.sort_by_key(|c| std::cmp::Reverse(c.faces));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference;
+    use octowrap_geom::DVec3;
+    use octowrap_mesh::FaceList;
+    use proptest::prelude::*;
+
+    /// A mesh of random polygons over few vertices, so that every pathology turns up: shared
+    /// edges of any valence, both orientations, fans touching at a vertex, duplicate and repeated
+    /// faces, indices out of range, coincident and non-finite vertices.
+    fn arb_mesh() -> impl Strategy<Value = Mesh> {
+        (4u32..14, prop::collection::vec((3usize..6, any::<u64>()), 0..40), any::<u64>()).prop_map(|(n, fs, seed)| {
+            let mut rng = octowrap_geom::SplitMix64::new(seed);
+            let pos: Vec<DVec3> = (0..n)
+                .map(|_| match rng.next_u64() % 12 {
+                    0 => DVec3::ZERO,
+                    1 => DVec3::new(f64::NAN, 0.0, 0.0),
+                    _ => DVec3::new(
+                        (rng.next_u64() % 5) as f64,
+                        (rng.next_u64() % 5) as f64,
+                        (rng.next_u64() % 3) as f64,
+                    ),
+                })
+                .collect();
+            let mut faces = FaceList::default();
+            for (len, s) in fs {
+                let mut r = octowrap_geom::SplitMix64::new(s);
+                let range = if r.next_u64() % 20 == 0 { n + 2 } else { n };
+                let face: Vec<u32> = (0..len).map(|_| (r.next_u64() % u64::from(range)) as u32).collect();
+                faces.push(&face);
+                // Often repeat a face, either way round, to make duplicates and pillows.
+                match r.next_u64() % 6 {
+                    0 => faces.push(&face),
+                    1 => faces.push(&face.iter().rev().copied().collect::<Vec<_>>()),
+                    _ => {}
+                }
+            }
+            let mut m = Mesh::from_positions(pos);
+            m.faces = faces;
+            m
+        })
+    }
+
+    /// A closed grid-like surface: a triangulated torus, with boundary cut in when `open`.
+    fn torus(nu: u32, nv: u32, open: bool) -> Mesh {
+        let pos = (0..nu * nv)
+            .map(|k| {
+                let (u, w) = (f64::from(k / nv) / f64::from(nu), f64::from(k % nv) / f64::from(nv));
+                let (u, w) = (u * std::f64::consts::TAU, w * std::f64::consts::TAU);
+                DVec3::new((2.0 + w.cos()) * u.cos(), (2.0 + w.cos()) * u.sin(), w.sin())
+            })
+            .collect();
+        let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
+        let mut tris = Vec::new();
+        for i in 0..nu - u32::from(open) {
+            for j in 0..nv {
+                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        let mut m = Mesh::from_positions(pos);
+        m.faces = FaceList::from_triangles(&tris);
+        m
+    }
+
+    fn all_paths_agree(m: &Mesh) {
+        let opts = Options::default();
+        let fast = check_with(m, &opts, m.vertex_count(), false);
+        let general = check_with(m, &opts, m.vertex_count(), true);
+        let plain = reference::check(m, &opts, m.vertex_count());
+        assert_eq!(fast, general, "regular-vertex path differs from the general path");
+        assert_eq!(fast, plain, "ring walk differs from the plain edge-sorting implementation");
+    }
+
+    #[test]
+    fn regular_meshes_take_the_fast_path_and_agree() {
+        for open in [false, true] {
+            let m = torus(12, 9, open);
+            all_paths_agree(&m);
+            let r = check(&m, &Options::default(), m.vertex_count());
+            assert!(r.properties.manifold && r.properties.oriented);
+            assert_eq!(r.properties.closed, !open);
+            assert_eq!(r.counts.boundary_loops, if open { 2 } else { 0 });
+        }
+    }
+
+    #[test]
+    fn a_two_face_pillow_is_a_closed_sphere_of_duplicate_faces() {
+        let mut m = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::Y]);
+        m.faces = FaceList::from_triangles(&[[0, 1, 2], [2, 1, 0]]);
+        all_paths_agree(&m);
+        let r = check(&m, &Options::default(), 3);
+        assert!(r.properties.watertight && r.properties.oriented);
+        assert_eq!(r.counts.duplicate_faces, 1);
+        assert_eq!(r.components[0].genus, Some(0));
+    }
+
+    /// A torus, triangulated or in quads, with random faces removed (holes, borders, vertices
+    /// where two holes touch), flipped (orientation conflicts) or repeated: mostly regular
+    /// vertices with defects among them, where the fast path must stop exactly where it should.
+    fn arb_damaged_torus() -> impl Strategy<Value = Mesh> {
+        (3u32..9, 3u32..8, any::<bool>(), any::<u64>()).prop_map(|(nu, nv, quads, seed)| {
+            let mut m = torus(nu, nv, false);
+            let mut rng = octowrap_geom::SplitMix64::new(seed);
+            let rate = rng.below(5);
+            let source: Vec<Vec<u32>> = if quads {
+                m.faces.iter().collect::<Vec<_>>().chunks(2).map(|t| vec![t[0][0], t[0][1], t[0][2], t[1][2]]).collect()
+            } else {
+                m.faces.iter().map(<[u32]>::to_vec).collect()
+            };
+            let mut faces = FaceList::default();
+            for mut f in source {
+                match rng.below(24) {
+                    x if x < rate => continue,
+                    5 => f.reverse(),
+                    6 => faces.push(&f),
+                    7 => faces.push(&f.iter().rev().copied().collect::<Vec<_>>()),
+                    _ => {}
+                }
+                faces.push(&f);
+            }
+            m.faces = faces;
+            m
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+        #[test]
+        fn ring_walk_matches_on_damaged_surfaces(m in arb_damaged_torus()) {
+            all_paths_agree(&m);
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        #[test]
+        fn ring_walk_matches_the_plain_implementation(m in arb_mesh()) {
+            all_paths_agree(&m);
+        }
+    }
 }

@@ -10,6 +10,12 @@ impl Dsu {
         Self { parent: (0..n as u32).collect() }
     }
 
+    /// Makes it `n` singletons again, keeping the allocation.
+    pub(crate) fn reset(&mut self, n: usize) {
+        self.parent.clear();
+        self.parent.extend(0..n as u32);
+    }
+
     pub(crate) fn find(&mut self, mut x: usize) -> usize {
         while self.parent[x] as usize != x {
             let p = self.parent[x] as usize;
@@ -17,6 +23,17 @@ impl Dsu {
             x = self.parent[x] as usize;
         }
         x
+    }
+
+    /// Joins `x`'s set to the set whose root is `root`, and returns the joined set's root.
+    pub(crate) fn union_root(&mut self, root: usize, x: usize) -> usize {
+        let rx = self.find(x);
+        if rx == root {
+            return root;
+        }
+        let (lo, hi) = (root.min(rx), root.max(rx));
+        self.parent[hi] = lo as u32;
+        lo
     }
 
     pub(crate) fn union(&mut self, a: usize, b: usize) {

@@ -56,6 +56,8 @@ mod check;
 mod dsu;
 mod intersect;
 mod output;
+#[cfg(test)]
+mod reference;
 mod report;
 
 pub use output::{FileResult, Format, Outcome, Requirement, write_report};

@@ -1,0 +1,44 @@
+//! Validates a closed triangulated torus of `2 * NU * NV` faces once and prints the time: the
+//! profiling driver for the checks (`valgrind --tool=callgrind target/release/examples/torus`).
+//!
+//! `cargo run --release -p octowrap-validate --example torus -- [NU NV]` (default 1000 500).
+
+#![allow(clippy::print_stdout)] // A command-line tool: printing is its job.
+
+use octowrap_geom::DVec3;
+use octowrap_mesh::{FaceList, Mesh};
+use octowrap_validate::{Options, validate_mesh};
+
+fn main() {
+    let args: Vec<u32> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let (nu, nv) = (args.first().copied().unwrap_or(1000), args.get(1).copied().unwrap_or(500));
+    let pos = (0..nu * nv)
+        .map(|k| {
+            let u = std::f64::consts::TAU * f64::from(k / nv) / f64::from(nu);
+            let w = std::f64::consts::TAU * f64::from(k % nv) / f64::from(nv);
+            DVec3::new((2.0 + 0.7 * w.cos()) * u.cos(), (2.0 + 0.7 * w.cos()) * u.sin(), 0.7 * w.sin())
+        })
+        .collect();
+    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
+    let mut tris = Vec::with_capacity((2 * nu * nv) as usize);
+    for i in 0..nu {
+        for j in 0..nv {
+            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let mut mesh = Mesh::from_positions(pos);
+    mesh.faces = FaceList::from_triangles(&tris);
+    let t = std::time::Instant::now();
+    let report = validate_mesh(&mesh, &Options::default());
+    let secs = t.elapsed().as_secs_f64();
+    println!(
+        "{} faces: {:.1} ms, {:.1} M faces/s; watertight {}, oriented {}, genus {:?}",
+        mesh.faces.len(),
+        secs * 1e3,
+        mesh.faces.len() as f64 / secs / 1e6,
+        report.properties.watertight,
+        report.properties.oriented,
+        report.components.first().and_then(|c| c.genus)
+    );
+}
