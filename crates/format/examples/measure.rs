@@ -8,8 +8,13 @@ use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode
 
 fn main() {
     for path in std::env::args().skip(1) {
-        let h = read_path(path.as_ref(), &DecodeOptions::default()).expect("reads").hierarchy;
+        let mut h = read_path(path.as_ref(), &DecodeOptions::default()).expect("reads").hierarchy;
         let opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+        if std::env::var_os("MEASURE_PLACE").is_some() {
+            let t = Instant::now();
+            let p = octowrap_format::place_on_prediction_lines(&mut h, &opts).expect("places");
+            println!("placed on lines in {:.1} ms: {p:?}", t.elapsed().as_secs_f64() * 1e3);
+        }
         let t = Instant::now();
         let (bytes, stats) = encode_with_stats(&h, &opts).expect("encodes");
         let enc = t.elapsed().as_secs_f64();
@@ -23,8 +28,9 @@ fn main() {
         for (k, (s, l)) in stats.iter().zip(&h.levels).enumerate() {
             let v = l.mesh.vertex_count().max(1) as f64;
             println!(
-                "  level {k}: mode {} {:>7} vertices {:>7} faces  topo {:>6} B ({:.2} b/v)  geo {:>7} B ({:.2} b/v)",
+                "  level {k}: mode {} pred {} {:>7} vertices {:>7} faces  topo {:>6} B ({:.2} b/v)  geo {:>7} B ({:.2} b/v)",
                 s.mode,
+                s.predictor,
                 l.mesh.vertex_count(),
                 l.mesh.faces.len(),
                 s.topology,
@@ -85,6 +91,11 @@ pub fn residual_entropy(bytes: &[u8]) -> Vec<[f64; 3]> {
     let mut out = Vec::new();
     for p in octowrap_format::fuzzing::payloads(bytes).expect("payloads") {
         let nv = u32::from_le_bytes(p[4..8].try_into().unwrap()) as usize;
+        if p[2] & 2 != 0 {
+            // Line geometry (spec §6.6): another layout; not measured here.
+            out.push([f64::NAN; 3]);
+            continue;
+        }
         let sizes: Vec<usize> =
             (0..12).map(|i| u32::from_le_bytes(p[16 + 4 * i..20 + 4 * i].try_into().unwrap()) as usize).collect();
         let mut at = 64 + sizes[..11].iter().sum::<usize>();

@@ -6,8 +6,8 @@ use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, Mode, NO_PARENT, NO_POS, NONE, Parent, STREAM_COUNT,
-    STREAM_NAMES, Topo, geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, LINE_PARAM_LIMIT, Mode, NO_PARENT, NO_POS, NONE,
+    PREDICTOR_LINES, Parent, STREAM_COUNT, STREAM_NAMES, Topo, geometry_pass, number_edges, rotated, s,
 };
 
 /// One decoded level on plain arrays.
@@ -53,6 +53,8 @@ pub struct GridInfo {
     pub tied: bool,
     /// Grid bits.
     pub bits: u32,
+    /// File format version (line geometry needs version 2).
+    pub version: u16,
 }
 
 /// Decodes level `k`'s decompressed payload.
@@ -87,9 +89,14 @@ pub fn decode_level(
     if mode == Mode::Lattice && (!has_lattice || !(grid.exact || grid.tied)) {
         return Err(bad(0, "lattice mode needs the lattice flag and an exact or cube-tied grid".into()));
     }
-    let predictor = head.u8()?;
+    let predictor_byte = head.u8()?;
+    let lines = predictor_byte & PREDICTOR_LINES != 0;
+    let predictor = predictor_byte & !PREDICTOR_LINES;
     if predictor > u8::from(mode == Mode::Lattice) {
         return Err(bad(2, format!("predictor {predictor} is not defined for mode {}", mode as u8)));
+    }
+    if lines && (mode == Mode::Base || grid.exact || grid.version < 2) {
+        return Err(bad(2, "line geometry needs a refinement level of a grid file of version 2 or later".into()));
     }
     if head.u8()? != 0 {
         return Err(bad(3, "reserved byte is not zero".into()));
@@ -427,16 +434,16 @@ pub fn decode_level(
         // go first, so that the geometry pass can reuse their memory (fewer fresh pages).
         drop((pred, name_of, names, count, first));
         out.parents.shrink_to_fit();
-        return finish(k, (mode, predictor), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
+        return finish(k, (mode, predictor, lines), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
     }
     let pos = vec![NO_POS; nc];
-    finish(k, (mode, predictor), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
+    finish(k, (mode, predictor, lines), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
 }
 
 #[allow(clippy::too_many_arguments)]
 fn finish(
     k: u32,
-    (mode, predictor): (Mode, u8),
+    (mode, predictor, lines): (Mode, u8, bool),
     has_lattice: bool,
     grid: GridInfo,
     st: &mut [Reader<'_>],
@@ -480,7 +487,20 @@ fn finish(
             return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
         }
     } else {
-        let planes = [g.plane_view(nv, 4)?, g.plane_view(nv, 4)?, g.plane_view(nv, 4)?];
+        // §6.1 / §6.6: with lines, a bitmap of line vertices, their parameters, and the other
+        // vertices' residuals, each list in coding order (pass A, then pass B).
+        let mut flags: &[u8] = &[];
+        let mut line_count = 0usize;
+        if lines {
+            flags = g.bytes(nv.div_ceil(8))?;
+            if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
+                return Err(g.invalid("unused line flag bits are not zero"));
+            }
+            line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
+        }
+        let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
+        let rest = nv - line_count;
+        let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
         let mut q = vec![[0i64; 3]; nv];
         let pp = parent.map(PlainLevel::as_parent);
         let topo = Topo {
@@ -495,22 +515,38 @@ fn finish(
             vertex_corners: out.corners.as_deref(),
             parent_quads: (mode == Mode::Lattice).then_some(parent_quads),
             predictor,
+            lines,
         };
         let geo_off = g.offset();
-        geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {
+        let invalid =
+            |reason: String| Error::Invalid { place: Where::Payload(k), offset: geo_off, what: "geometry", reason };
+        let (mut next_line, mut next_other) = (0usize, 0usize);
+        geometry_pass(&topo, pp.as_ref(), &mut q, |v, pr| {
+            if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
+                let Some(line) = pr.line else {
+                    return Err(invalid(format!("vertex {v} is flagged as a line vertex but has no context")));
+                };
+                let j = pr.param + unzigzag(params.as_ref().expect("lines").get(next_line));
+                next_line += 1;
+                if j.abs() > LINE_PARAM_LIMIT {
+                    return Err(invalid(format!("vertex {v} has line parameter {j}, beyond 2^30")));
+                }
+                let out = line.point(j);
+                if out.iter().any(|x| x.abs() > GRID_LIMIT) {
+                    return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
+                }
+                return Ok((out, Some(j)));
+            }
+            let i = if lines { next_other } else { v };
+            next_other += 1;
             let mut out = [0i64; 3];
             for a in 0..3 {
-                out[a] = pred[a] + unzigzag(planes[a].get(v));
+                out[a] = pr.point[a] + unzigzag(planes[a].get(i));
                 if out[a].abs() > GRID_LIMIT {
-                    return Err(Error::Invalid {
-                        place: Where::Payload(k),
-                        offset: geo_off,
-                        what: "geometry",
-                        reason: format!("vertex {v} decodes outside the grid range (|q| > 2^28)"),
-                    });
+                    return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
                 }
             }
-            Ok(out)
+            Ok((out, None))
         })?;
         out.q = q;
     }

@@ -7,8 +7,8 @@ use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NO_POS, Parent, STREAM_COUNT, Topo, best_rotation, geometry_pass,
-    number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent, STREAM_COUNT, Topo, best_rotation,
+    geometry_pass, number_edges, rotated, s,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
@@ -44,6 +44,14 @@ pub struct Encoded {
     pub vertex_old: Vec<u32>,
     /// Bytes of topology streams and of the geometry stream (before zstd).
     pub split_bytes: (usize, usize),
+    /// Coding mode.
+    pub mode: Mode,
+    /// The block's `predictor` byte (lattice predictor, line bit).
+    pub predictor: u8,
+    /// Per corner: canonical position for geometry contexts (`NO_POS` for none).
+    pub pos: Vec<u8>,
+    /// Lattice mode: the parent's canonical quads.
+    pub parent_quads: Vec<([u32; 4], u8)>,
 }
 
 struct Streams([Vec<u8>; STREAM_COUNT]);
@@ -110,7 +118,9 @@ pub fn encode_level(
         level.exact.clone_from(&input.exact);
         let pos = vec![NO_POS; input.indices.len()];
         st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], 0);
-        return Ok(finish(st, (Mode::Base, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect()));
+        let mut e = finish(st, (Mode::Base, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect());
+        e.pos = pos;
+        return Ok(e);
     };
     let pp = parent.as_parent();
     let lattice_plan =
@@ -372,16 +382,27 @@ pub fn encode_level(
     let quads = if mode == Mode::Lattice { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
     st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, 0);
-    if mode == Mode::Lattice && !exact {
-        // Keep whichever lattice predictor compresses better (spec §6.3).
-        let other = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, 1);
+    if !exact {
+        // Keep whichever predictor (spec §6.3) and layout (§6.6) compresses best.
         let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
-        if size(&other) < size(&st.0[s::GEOMETRY]) {
-            st.0[s::GEOMETRY] = other;
-            predictor = 1;
+        let mut best = size(&st.0[s::GEOMETRY]);
+        let lattice_predictors: &[u8] = if mode == Mode::Lattice { &[1] } else { &[] };
+        let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
+        let variants = lattice_predictors.iter().copied().chain(line_predictors.iter().map(|&p| p | PREDICTOR_LINES));
+        for variant in variants {
+            let other = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, variant);
+            let n = size(&other);
+            if n < best {
+                best = n;
+                st.0[s::GEOMETRY] = other;
+                predictor = variant;
+            }
         }
     }
-    Ok(finish(st, (mode, predictor), has_lattice, level, face_new, vorder))
+    let mut e = finish(st, (mode, predictor), has_lattice, level, face_new, vorder);
+    e.pos = pos;
+    e.parent_quads = quads;
+    Ok(e)
 }
 
 fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
@@ -422,7 +443,7 @@ fn geometry(
         return g;
     }
     let nv = level.q.len();
-    let mut res = [vec![0u64; nv], vec![0u64; nv], vec![0u64; nv]];
+    let lines = predictor & PREDICTOR_LINES != 0;
     let target = &level.q;
     let pp = parent.map(PlainLevel::as_parent);
     let topo = Topo {
@@ -436,15 +457,42 @@ fn geometry(
         corner_pos: pos,
         vertex_corners: level.corners.as_deref(),
         parent_quads: (mode == Mode::Lattice).then_some(quads),
-        predictor,
+        predictor: predictor & !PREDICTOR_LINES,
+        lines,
     };
+    // Without lines: residuals by vertex index. With lines (§6.6): line flags, then parameters
+    // and the other vertices' residuals in coding order.
+    let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
+    let mut params = Vec::new();
+    let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
     let mut q = vec![[0i64; 3]; nv];
-    let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, |v, pred| {
-        for a in 0..3 {
-            res[a][v] = zigzag(target[v][a] - pred[a]);
+    let mut order = Vec::with_capacity(if lines { 0 } else { nv });
+    let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, |v, pr| {
+        let t = target[v];
+        if let Some(j) = pr.line.and_then(|l| l.param(t)) {
+            flags[v / 8] |= 1 << (v % 8);
+            params.push(zigzag(j - pr.param));
+            return Ok((t, Some(j)));
         }
-        Ok(target[v])
+        for a in 0..3 {
+            res[a].push(zigzag(t[a] - pr.point[a]));
+        }
+        order.push(v as u32);
+        Ok((t, None))
     });
+    if lines {
+        g.extend(&flags);
+        put_planes(&mut g, &params);
+    } else {
+        // Back to vertex order.
+        for r in &mut res {
+            let mut by_vertex = vec![0u64; nv];
+            for (i, &v) in order.iter().enumerate() {
+                by_vertex[v as usize] = r[i];
+            }
+            *r = by_vertex;
+        }
+    }
     for r in &res {
         put_planes(&mut g, r);
     }
@@ -475,7 +523,17 @@ fn finish(
     for sv in st.0 {
         payload.extend(sv);
     }
-    Encoded { payload, level, face_new, vertex_old, split_bytes: (topo, geo) }
+    Encoded {
+        payload,
+        level,
+        face_new,
+        vertex_old,
+        split_bytes: (topo, geo),
+        mode,
+        predictor,
+        pos: Vec::new(),
+        parent_quads: Vec::new(),
+    }
 }
 
 /// Generic-mode rotation: the one placing the child's corners nearest to the canonical

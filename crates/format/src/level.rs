@@ -250,26 +250,71 @@ pub struct Topo<'a> {
     pub parent_quads: Option<&'a [([u32; 4], u8)]>,
     /// Lattice mode: [`PREDICTOR_NORMAL`] or [`PREDICTOR_BILINEAR`].
     pub predictor: u8,
+    /// Prediction lines (spec §6.6): pass A also predicts each vertex's line and line parameter.
+    pub lines: bool,
 }
 
 /// Lattice predictor 0: the lattice point moved along the parent normal (spec §6.3).
-#[allow(dead_code)]
 pub const PREDICTOR_NORMAL: u8 = 0;
 /// Lattice predictor 1: the parent surface's bilinear point (spec §6.3).
 pub const PREDICTOR_BILINEAR: u8 = 1;
+/// Bit 1 of the block's `predictor` byte: the geometry stream has the line layout (spec §6.6).
+pub const PREDICTOR_LINES: u8 = 2;
+/// The largest magnitude of a line parameter `j` (spec §6.6).
+pub const LINE_PARAM_LIMIT: i64 = 1 << 30;
 
-/// The bilinear point of the parent face above lattice corner `corner` (spec §6.3, predictor 1).
-pub fn bilinear_prediction(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
-    map3(bilinear_sum(pq, quad, slot, corner), |x| round_div(x, 4))
+/// A vertex's prediction line (spec §6.6): the grid points `base + round_away(j * u)` for integer
+/// `j`, where `u` is the predicted normal scaled so that its largest component is exactly ±1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Line {
+    /// The line's point for `j = 0` (the base prediction).
+    pub base: [i64; 3],
+    /// The direction, largest component ±1.
+    pub u: [f64; 3],
+}
+
+impl Line {
+    /// The line through `base` along `n` (`(0, 0, 1)` when `n` is zero).
+    #[inline]
+    pub fn new(base: [i64; 3], n: [f64; 3]) -> Self {
+        let m = n[0].abs().max(n[1].abs()).max(n[2].abs());
+        let u = if m > 0.0 { [n[0] / m, n[1] / m, n[2] / m] } else { [0.0, 0.0, 1.0] };
+        Self { base, u }
+    }
+
+    /// The grid point of parameter `j` (`|j| <= LINE_PARAM_LIMIT`), saturating.
+    #[inline]
+    pub fn point(&self, j: i64) -> [i64; 3] {
+        let jf = j as f64;
+        [
+            self.base[0].saturating_add(round_away(jf * self.u[0])),
+            self.base[1].saturating_add(round_away(jf * self.u[1])),
+            self.base[2].saturating_add(round_away(jf * self.u[2])),
+        ]
+    }
+
+    /// The parameter of grid point `q` when `q` lies on the line (within the parameter limit).
+    pub fn param(&self, q: [i64; 3]) -> Option<i64> {
+        #[allow(clippy::float_cmp)] // exactly ±1 by construction (spec §6.6)
+        let a = (0..3).find(|&a| self.u[a].abs() == 1.0)?;
+        let j = (q[a].checked_sub(self.base[a])?).checked_mul(self.u[a] as i64)?;
+        (j.abs() <= LINE_PARAM_LIMIT && self.point(j) == q).then_some(j)
+    }
+}
+
+/// What pass A or B predicts for one vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct Prediction {
+    /// The point prediction (base plus local bias, or the neighbour predictor), clamped.
+    pub point: [i64; 3],
+    /// In line mode, for vertices with a context: the vertex's prediction line.
+    pub line: Option<Line>,
+    /// The predicted line parameter (0 without a line).
+    pub param: i64,
 }
 
 /// `S` of spec §6.3: four times the parent's bilinear point above `corner`. The slot's canonical
 /// corner 0 equals its voxel on both in-plane axes.
-#[inline]
-fn bilinear_sum(pq: &[[i64; 3]], quad: [u32; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
-    bilinear_sum_of(&quad_points(pq, quad), slot, corner)
-}
-
 #[inline]
 fn bilinear_sum_of(p: &[[i64; 3]; 4], slot: ([u32; 3], u8), corner: [u32; 3]) -> [i64; 3] {
     let (u, w) = lattice::plane_axes(slot.1);
@@ -304,10 +349,11 @@ fn round_away(x: f64) -> i64 {
     }
 }
 
-#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.5 in one place, so both directions share it
+#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.6 in one place, so both directions share it
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
-/// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates (the
-/// decoder adds the residual, the encoder records `q - prediction` and returns `q`).
+/// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates and, for a
+/// vertex coded on its prediction line, its line parameter (the decoder adds the residual, the
+/// encoder records the residual and returns the target).
 ///
 /// Flat arrays only: per vertex its context corner and face, and its neighbours (previous and
 /// next corner of every incident corner, in corner order) as one CSR list built by counting.
@@ -315,7 +361,7 @@ pub fn geometry_pass<E>(
     topo: &Topo<'_>,
     parent: Option<&Parent<'_>>,
     q: &mut [[i64; 3]],
-    mut step: impl FnMut(usize, [i64; 3]) -> Result<[i64; 3], E>,
+    mut step: impl FnMut(usize, &Prediction) -> Result<([i64; 3], Option<i64>), E>,
 ) -> Result<(), E> {
     let nv = q.len();
     let nf = topo.offsets.len() - 1;
@@ -367,9 +413,11 @@ pub fn geometry_pass<E>(
     if let Some(p) = parent {
         // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
         // not decoded yet and for vertices without a context, so the sums below need no test.
-        // |bias| <= 2^29 + 2^28 fits i32.
-        let mut bias = vec![[0i32; 4]; nv];
+        // |bias| <= 2^29 + 2^28 fits i32; so does a line parameter (|j| <= 2^30).
+        // bias[v] = [x, y, z, 1, j, 1 if v is a line vertex].
+        let mut bias = vec![[0i32; 6]; nv];
         let lattice_mode = topo.mode == Mode::Lattice;
+        let lines = topo.lines;
         for v in 0..nv {
             let c = ctx[v];
             if c == NONE {
@@ -377,22 +425,18 @@ pub fn geometry_pass<E>(
             }
             let f = ctx_face[v] as usize;
             let pf = topo.parents[f] as usize;
-            let pred = if lattice_mode {
+            let (pred, normal) = if lattice_mode {
                 let quads = topo.parent_quads.expect("lattice mode has parent quads");
                 let slots = p.slots.expect("lattice parent");
                 let corners = topo.vertex_corners.expect("lattice level");
-                if topo.predictor == PREDICTOR_BILINEAR {
-                    bilinear_prediction(p.q, quads[pf].0, slots[pf], corners[v])
-                } else {
-                    lattice_prediction(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits)
-                }
+                lattice_base(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, lines)
             } else {
                 let face = p.face(pf);
                 let n = face.len();
                 let qd = usize::from(topo.quadrants[f]);
                 let at = |i: usize| p.q[face[i % n] as usize];
                 let two = |x: [i64; 3], y: [i64; 3]| map3([0, 1, 2], |a| round_div(x[a] + y[a], 2));
-                match topo.corner_pos[c as usize] {
+                let pred = match topo.corner_pos[c as usize] {
                     0 => at(qd),
                     1 => two(at(qd), at(qd + 1)),
                     2 => {
@@ -405,25 +449,27 @@ pub fn geometry_pass<E>(
                         map3(sum, |s| round_div(s, n as i64))
                     }
                     _ => two(at(qd + n - 1), at(qd)),
-                }
+                };
+                (pred, if lines { newell_normal(p.q, face) } else { [0.0; 3] })
             };
             // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
             let base = clamp(pred);
-            // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours.
-            let mut sum = [0i64; 4];
+            // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours;
+            // `bias[u][5]` likewise for the line vertices among them.
+            let mut sum = [0i64; 6];
             let near = &nbr[range(v)];
             if near.len() < 1 << 30 {
-                // At most 2^30 terms of magnitude below 2^30: no sum can saturate.
+                // At most 2^30 terms of magnitude at most 2^30: no sum can saturate.
                 for &u in near {
                     let b = bias[u as usize];
-                    for k in 0..4 {
+                    for k in 0..6 {
                         sum[k] += i64::from(b[k]);
                     }
                 }
             } else {
                 for &u in near {
                     let b = bias[u as usize];
-                    for k in 0..4 {
+                    for k in 0..6 {
                         sum[k] = sum[k].saturating_add(i64::from(b[k]));
                     }
                 }
@@ -435,9 +481,16 @@ pub fn geometry_pass<E>(
                     pred[k] += round_div(sum[k].saturating_mul(3), 4 * count);
                 }
             }
-            let qv = step(v, clamp(pred))?;
+            let (line, param) = if lines {
+                let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
+                (Some(Line::new(base, normal)), jp)
+            } else {
+                (None, 0)
+            };
+            let (qv, j) = step(v, &Prediction { point: clamp(pred), line, param })?;
             q[v] = qv;
-            bias[v] = [(qv[0] - base[0]) as i32, (qv[1] - base[1]) as i32, (qv[2] - base[2]) as i32, 1];
+            let (jv, on) = j.map_or((0, 0), |j| (j as i32, 1));
+            bias[v] = [(qv[0] - base[0]) as i32, (qv[1] - base[1]) as i32, (qv[2] - base[2]) as i32, 1, jv, on];
         }
     }
     if missing == 0 {
@@ -477,7 +530,7 @@ pub fn geometry_pass<E>(
         } else {
             [0; 3]
         };
-        q[v] = step(v, clamp(pred))?;
+        q[v] = step(v, &Prediction { point: clamp(pred), line: None, param: 0 })?.0;
     }
     Ok(())
 }
@@ -498,35 +551,60 @@ fn clamp(p: [i64; 3]) -> [i64; 3] {
     map3(p, |x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
 }
 
-/// The lattice predictor of spec §6.3: the lattice point moved along the parent face's normal to
-/// the parent surface's bilinear point.
-pub fn lattice_prediction(
+/// The lattice predictor of spec §6.3 (`predictor` 0 or 1) and the parent face's normal `n` as
+/// binary64 (computed for predictor 1 only when `want_normal`; zero when the face is degenerate).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn lattice_base(
     pq: &[[i64; 3]],
     quad: [u32; 4],
     slot: ([u32; 3], u8),
     corner: [u32; 3],
     level: u32,
     bits: u32,
-) -> [i64; 3] {
+    predictor: u8,
+    want_normal: bool,
+) -> ([i64; 3], [f64; 3]) {
     let p = quad_points(pq, quad);
     let s = bilinear_sum_of(&p, slot, corner);
-    let l = lattice::lattice_point(corner, level, bits);
+    if predictor == PREDICTOR_BILINEAR && !want_normal {
+        return (map3(s, |x| round_div(x, 4)), [0.0; 3]);
+    }
     let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
     let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
     let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
     let nf = map3(n, |x| x as f64);
+    if predictor == PREDICTOR_BILINEAR {
+        return (map3(s, |x| round_div(x, 4)), nf);
+    }
+    let l = lattice::lattice_point(corner, level, bits);
     let d = [(s[0] - 4 * l[0]) as f64, (s[1] - 4 * l[1]) as f64, (s[2] - 4 * l[2]) as f64];
     let nn = nf[0] * nf[0] + nf[1] * nf[1] + nf[2] * nf[2];
     if nn == 0.0 {
-        return map3(s, |x| round_div(x, 4));
+        return (map3(s, |x| round_div(x, 4)), nf);
     }
     let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
-    map3([0, 1, 2], |k| l[k].saturating_add(round_away(nf[k] * t)))
+    (map3([0, 1, 2], |k| l[k].saturating_add(round_away(nf[k] * t))), nf)
+}
+
+/// Newell's normal of a parent face (spec §6.6): the sum of `G_i x G_(i+1)` over its corners,
+/// exact in 128 bits, then each component rounded to binary64.
+pub fn newell_normal(pq: &[[i64; 3]], face: &[u32]) -> [f64; 3] {
+    let n = face.len();
+    let mut acc = [0i128; 3];
+    for i in 0..n {
+        let a = pq[face[i] as usize].map(i128::from);
+        let b = pq[face[if i + 1 == n { 0 } else { i + 1 }] as usize].map(i128::from);
+        acc[0] += a[1] * b[2] - a[2] * b[1];
+        acc[1] += a[2] * b[0] - a[0] * b[2];
+        acc[2] += a[0] * b[1] - a[1] * b[0];
+    }
+    map3(acc, |x| x as f64)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{number_edges, round_away, round_div};
+    use super::{LINE_PARAM_LIMIT, Line, number_edges, round_away, round_div};
 
     #[test]
     fn edges_numbered_like_a_hash_map_would() {
@@ -563,6 +641,25 @@ mod tests {
             assert_eq!(number_edges(&offsets, &indices), reference(&offsets, &indices), "nv {nv}");
         }
         assert_eq!(number_edges(&[0], &[]), (vec![], 0));
+    }
+
+    #[test]
+    fn every_line_point_has_one_parameter() {
+        let normals = [[3.0, -7.0, 2.0], [0.0, 0.0, 0.0], [1e9, 1e9, -1e9], [-5.0, 0.5, 0.0], [0.0, -2.0, 2.0]];
+        for n in normals {
+            let line = Line::new([10, -20, 30], n);
+            assert!(line.u.iter().any(|x| x.abs().to_bits() == 1f64.to_bits()), "{n:?}");
+            for j in (-300..300).chain([LINE_PARAM_LIMIT, -LINE_PARAM_LIMIT]) {
+                let q = line.point(j);
+                assert_eq!(line.param(q), Some(j), "{n:?} j {j}");
+                // A point off the line has no parameter.
+                let off = [q[0] + 1, q[1] + 1, q[2] + 1];
+                if let Some(i) = line.param(off) {
+                    assert_eq!(line.point(i), off);
+                }
+            }
+            assert_eq!(line.param(line.point(LINE_PARAM_LIMIT + 1)), None);
+        }
     }
 
     #[test]

@@ -43,6 +43,12 @@
 //! * **Prediction from the decoded parent**: the lattice point moved along the parent's normal, or
 //!   the parent's bilinear point, whichever the encoder finds smaller per level, plus 3/4 of the
 //!   mean correction already needed by decoded neighbours.
+//! * **One number per vertex on its prediction line** (spec §6.6, format version 2): the decoder
+//!   derives a line for every vertex from the decoded parent (the base prediction and the parent
+//!   face's normal); a vertex on it costs its parameter along it instead of three residuals.
+//!   [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines along their tangent
+//!   planes (a co-design with reconstruction, see `docs/format-notes.md`), so the file stores what
+//!   the caller holds exactly; vertices elsewhere still round-trip within half a step.
 //! * **Byte planes + zstd**: residuals and symbols go to separate streams, least significant
 //!   byte planes first, one zstd frame per level. Measured against the order-0 entropy of the
 //!   residuals, zstd is within about 3 % on the bunny and dragon hierarchies, so an adaptive
@@ -57,6 +63,7 @@ mod encode;
 mod error;
 mod lattice;
 mod level;
+mod lines;
 pub mod synthetic;
 
 use std::io::{Read, Write};
@@ -67,14 +74,15 @@ use xxhash_rust::xxh3::xxh3_64;
 
 pub use container::Metadata;
 pub use error::{EncodeError, Error, Where};
+pub use lines::{LinePlacement, place_on_prediction_lines};
 
 use container::{ENTRY_SIZE, FLAG_CUBE, FLAG_EXACT, FLAG_TIED, FileHeader, HEADER_SIZE, LevelEntry, MAGIC, Preamble};
 use decode::{GridInfo, PlainLevel};
 use encode::InputLevel;
 use level::NO_PARENT;
 
-/// The format version this crate writes and reads (spec §1).
-pub const FORMAT_VERSION: u16 = 1;
+/// The format version this crate writes (spec §1); it reads this one and version 1.
+pub const FORMAT_VERSION: u16 = 2;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 
@@ -291,6 +299,8 @@ pub struct MrqFile {
 pub struct LevelStats {
     /// Level coding mode (0 base, 1 generic, 2 lattice).
     pub mode: u8,
+    /// The block's `predictor` byte: bit 0 the lattice predictor, bit 1 line geometry (spec §4.1).
+    pub predictor: u8,
     /// Stored bytes of the level (one zstd frame).
     pub stored: usize,
     /// Bytes of the topology streams, zstd-compressed on their own.
@@ -305,6 +315,18 @@ struct Grid {
     bits: u32,
     origin: DVec3,
     step: f64,
+}
+
+impl Grid {
+    /// Grid coordinates of `p`, rounded to the nearest grid point (not range-checked).
+    fn quantize(&self, p: DVec3) -> DVec3 {
+        ((p - self.origin) / self.step).round()
+    }
+
+    /// The world position of grid point `q` (spec §6.7), as the decoder computes it.
+    fn position(&self, q: [i64; 3]) -> DVec3 {
+        self.origin + DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) * self.step
+    }
 }
 
 fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> {
@@ -376,52 +398,64 @@ fn encode_levels(
     let grid = choose_grid(h, opts.quantization)?;
     let mut parent: Option<PlainLevel> = None;
     let mut parent_face_new: Vec<u32> = Vec::new();
-    for (k, l) in h.levels.iter().enumerate() {
-        let mesh = &l.mesh;
-        mesh.check_indices().map_err(|source| EncodeError::Faces { level: k, source })?;
-        if mesh.vertices.len() > u32::MAX as usize / 2 || mesh.faces.corner_count() > u32::MAX as usize / 2 {
-            return Err(EncodeError::Unsupported { level: k, reason: "too many vertices or corners".into() });
-        }
-        let mut q = Vec::new();
-        let mut exact = Vec::new();
-        for (v, p) in mesh.vertices.positions.iter().enumerate() {
-            if !p.is_finite() {
-                return Err(EncodeError::NonFinite { level: k, vertex: v });
-            }
-            if grid.exact {
-                exact.push(p.to_array());
-            } else {
-                let g = ((*p - grid.origin) / grid.step).round();
-                if g.abs().max_element() > level::GRID_LIMIT as f64 {
-                    return Err(EncodeError::OutOfGrid { level: k, vertex: v });
-                }
-                q.push([g.x as i64, g.y as i64, g.z as i64]);
-            }
-        }
-        let (parents, quadrants) = l
-            .origins
-            .iter()
-            .map(|o| match *o {
-                FaceOrigin::Subface { parent, quadrant } => (parent_face_new[parent as usize], quadrant.0),
-                FaceOrigin::Created => (NO_PARENT, 0),
-            })
-            .unzip();
-        let input = InputLevel {
-            offsets: mesh.faces.offsets(),
-            indices: mesh.faces.indices(),
-            parents,
-            quadrants,
-            slots: l.lattice.as_ref().map(|x| &x.face_slots[..]),
-            corners: l.lattice.as_ref().map(|x| &x.vertex_corners[..]),
-            q,
-            exact,
-        };
+    for k in 0..h.levels.len() {
+        let input = input_level(h, k, &grid, &parent_face_new)?;
         let enc = encode::encode_level(k as u32, &input, parent.as_ref(), grid.exact, grid.tied, grid.bits)?;
         each(&enc)?;
         parent_face_new = enc.face_new;
         parent = Some(enc.level);
     }
     Ok(grid)
+}
+
+/// Level `k` of `h` on plain arrays: positions quantized on `grid`, parents renumbered through
+/// `parent_face_new` (the parent level's canonical face order).
+fn input_level<'a>(
+    h: &'a Hierarchy,
+    k: usize,
+    grid: &Grid,
+    parent_face_new: &[u32],
+) -> Result<InputLevel<'a>, EncodeError> {
+    let l = &h.levels[k];
+    let mesh = &l.mesh;
+    mesh.check_indices().map_err(|source| EncodeError::Faces { level: k, source })?;
+    if mesh.vertices.len() > u32::MAX as usize / 2 || mesh.faces.corner_count() > u32::MAX as usize / 2 {
+        return Err(EncodeError::Unsupported { level: k, reason: "too many vertices or corners".into() });
+    }
+    let mut q = Vec::new();
+    let mut exact = Vec::new();
+    for (v, p) in mesh.vertices.positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(EncodeError::NonFinite { level: k, vertex: v });
+        }
+        if grid.exact {
+            exact.push(p.to_array());
+        } else {
+            let g = grid.quantize(*p);
+            if g.abs().max_element() > level::GRID_LIMIT as f64 {
+                return Err(EncodeError::OutOfGrid { level: k, vertex: v });
+            }
+            q.push([g.x as i64, g.y as i64, g.z as i64]);
+        }
+    }
+    let (parents, quadrants) = l
+        .origins
+        .iter()
+        .map(|o| match *o {
+            FaceOrigin::Subface { parent, quadrant } => (parent_face_new[parent as usize], quadrant.0),
+            FaceOrigin::Created => (NO_PARENT, 0),
+        })
+        .unzip();
+    Ok(InputLevel {
+        offsets: mesh.faces.offsets(),
+        indices: mesh.faces.indices(),
+        parents,
+        quadrants,
+        slots: l.lattice.as_ref().map(|x| &x.face_slots[..]),
+        corners: l.lattice.as_ref().map(|x| &x.vertex_corners[..]),
+        q,
+        exact,
+    })
 }
 
 fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
@@ -432,7 +466,13 @@ fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<Lev
         let geo_start = enc.payload.len() - enc.split_bytes.1;
         let topology = zstd::bulk::compress(&enc.payload[..geo_start], opts.zstd_level)?.len();
         let geometry = zstd::bulk::compress(&enc.payload[geo_start..], opts.zstd_level)?.len();
-        stats.push(LevelStats { mode: enc.payload[0], stored: stored.len(), topology, geometry });
+        stats.push(LevelStats {
+            mode: enc.payload[0],
+            predictor: enc.predictor,
+            stored: stored.len(),
+            topology,
+            geometry,
+        });
         let lv = &enc.level;
         let counts = (lv.q.len().max(lv.exact.len()) as u32, lv.parents.len() as u32, lv.indices.len() as u32);
         blocks.push((enc.payload.len() as u64, stored, counts));
@@ -545,7 +585,12 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
         None => n - 1,
     };
     let h = &pre.header;
-    let gi = GridInfo { exact: h.flags & FLAG_EXACT != 0, tied: h.flags & FLAG_TIED != 0, bits: h.grid_bits };
+    let gi = GridInfo {
+        exact: h.flags & FLAG_EXACT != 0,
+        tied: h.flags & FLAG_TIED != 0,
+        bits: h.grid_bits,
+        version: h.version,
+    };
     let origin = DVec3::from_array(h.origin);
     let mut out = Hierarchy {
         levels: Vec::new(),

@@ -18,7 +18,15 @@ fn samples() -> Vec<Vec<u8>> {
         encode(&without_lattice(cube_hierarchy(3, Edits::default(), 2)), &q12).unwrap(),
         encode(&Hierarchy::single(polygon_mesh(20, 12, 3)), &EncodeOptions::with_quantization(Quantization::Exact))
             .unwrap(),
+        // Line geometry (spec §6.6), lattice and generic.
+        encode(&placed(cube_hierarchy(3, Edits::default(), 4), &q12), &q12).unwrap(),
+        encode(&placed(without_lattice(cube_hierarchy(3, Edits::default(), 5)), &q12), &q12).unwrap(),
     ]
+}
+
+fn placed(mut h: Hierarchy, opts: &EncodeOptions) -> Hierarchy {
+    octowrap_format::place_on_prediction_lines(&mut h, opts).unwrap();
+    h
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Property: for random hierarchies (random edits, lattice or not) and random quantization, the
 //! decoded file equals the canonical form of the input: topology exactly, every position within
-//! half a grid step on every axis; and encoding is deterministic.
+//! half a grid step on every axis; and encoding is deterministic. Also after placing the vertices
+//! on their prediction lines.
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, canonical, decode, encode};
@@ -46,12 +47,18 @@ proptest! {
         split in 0.0f64..0.2,
         join in 0.0f64..0.1,
         lattice in any::<bool>(),
+        lines in any::<bool>(),
         q in quantization(),
     ) {
         let edits = Edits { remove, inner, create, split, join, noise: 0.3, shuffle: true };
         let h = cube_hierarchy(levels, edits, seed);
-        let h = if lattice { h } else { without_lattice(h) };
-        check(&h, &EncodeOptions::with_quantization(q))?;
+        let mut h = if lattice { h } else { without_lattice(h) };
+        let opts = EncodeOptions::with_quantization(q);
+        if lines {
+            // Vertices on their prediction lines (spec §6.6): still within half a step.
+            octowrap_format::place_on_prediction_lines(&mut h, &opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+        check(&h, &opts)?;
     }
 
     #[test]

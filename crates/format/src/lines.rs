@@ -1,0 +1,275 @@
+//! Line placement: the encoder side of the one-number geometry of spec §6.6.
+//!
+//! Source: `docs/format-notes.md`, "A co-design worth trying: exact one-number geometry". A
+//! refinement level's vertex with a parent context has a *prediction line* that the decoder
+//! derives from the decoded parent alone (the base prediction of §6.3 / §6.4 and the parent face's
+//! normal). A vertex that lies on its line costs one number (its parameter along the line) instead
+//! of three residuals. [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines,
+//! coarse to fine, each along its own tangent plane, so that the surface barely moves and the file
+//! still stores exactly what the caller holds (every moved vertex sits on a grid point).
+
+use octowrap_mesh::{Aabb, DVec3, Hierarchy, Mesh};
+
+use crate::decode::PlainLevel;
+use crate::encode::{self, Encoded};
+use crate::error::EncodeError;
+use crate::level::{
+    GRID_LIMIT, LINE_PARAM_LIMIT, Line, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL, Topo, geometry_pass,
+};
+use crate::{EncodeOptions, Grid, choose_grid, input_level};
+
+/// What [`place_on_prediction_lines`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct LinePlacement {
+    /// Vertices moved onto their prediction line (or found on it already).
+    pub placed: usize,
+    /// Vertices with a line that stayed where they were: the line meets their tangent plane at
+    /// a grazing angle or too far away (more than [`LinePlacement::max_move_voxels`] of their
+    /// level's voxel), or a move would change the grid of a file without an octree cube.
+    pub kept: usize,
+    /// Vertices without a line (level 0, and vertices that only created faces use).
+    pub without_line: usize,
+    /// The largest move, world units.
+    pub max_move: f64,
+    /// The root mean square move over placed vertices, world units.
+    pub rms_move: f64,
+}
+
+impl LinePlacement {
+    /// The largest move allowed, in voxels of the vertex's level (edge of the octree cube over
+    /// `2^k`, or of the bounding box's longest edge without a cube).
+    pub const fn max_move_voxels() -> f64 {
+        0.75
+    }
+}
+
+/// One candidate lattice predictor's placement: cost (squared moves), the moves (input vertex,
+/// new position), vertices kept, vertices without a line.
+type Candidate = (f64, Vec<(u32, DVec3)>, usize, usize);
+
+/// The smallest cosine between a vertex's line and its tangent plane's normal for which the
+/// vertex slides to their intersection (60 degrees).
+const MIN_COSINE: f64 = 0.5;
+
+/// Moves the vertices of every refinement level of `h` onto their prediction lines (spec §6.6),
+/// so that [`crate::encode`] with the same `opts` codes them with one number each.
+///
+/// Coarse to fine, each level is quantized and ordered exactly as the encoder will (so the parent
+/// every line comes from is the decoded parent); each vertex with a line slides along it to where
+/// it meets the vertex's tangent plane (the plane through the vertex's position, normal to the
+/// area-weighted normal of the level's mesh there), to the nearest line point on the grid. The
+/// new position is that grid point's world position, so the file holds it exactly. Lattice levels
+/// take the lattice predictor (§6.3) whose lines need the smaller moves. Vertices whose line
+/// meets the plane at a grazing angle or too far away stay where they are (the encoder codes them
+/// with three residuals). Every other vertex, level 0's included, moves to its grid point (at most
+/// half a step per axis), so that the file holds the result exactly. Topology and order are
+/// unchanged.
+///
+/// Exact files (`Quantization::Exact`) have no lines: `h` is left as it is. Without an octree
+/// cube the grid follows the bounding box of all positions; vertices on that box then stay, and no
+/// vertex leaves it, so the grid does not change. Deterministic: the same input gives the same
+/// output.
+pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Result<LinePlacement, EncodeError> {
+    if h.levels.is_empty() {
+        return Err(EncodeError::Empty);
+    }
+    h.check_links()?;
+    let grid = choose_grid(h, opts.quantization)?;
+    let mut stats = LinePlacement::default();
+    if grid.exact {
+        stats.without_line = h.levels.iter().map(|l| l.mesh.vertex_count()).sum();
+        return Ok(stats);
+    }
+    let mut bounds = Aabb::EMPTY;
+    for l in &h.levels {
+        for p in &l.mesh.vertices.positions {
+            bounds.grow(*p);
+        }
+    }
+    let guard = (!grid.tied).then_some(bounds);
+    let extent =
+        h.cube.filter(|c| !c.is_empty()).map_or_else(|| bounds.size().max_element(), |c| c.size().max_element());
+    let mut sum_sq = 0.0;
+    let mut parent: Option<PlainLevel> = None;
+    let mut parent_face_new: Vec<u32> = Vec::new();
+    for k in 0..h.levels.len() {
+        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
+        let Some(pl) = parent.as_ref() else {
+            stats.without_line += enc.vertex_old.len();
+            snap(&mut h.levels[k].mesh.vertices.positions, &grid, guard.as_ref(), |_| true);
+            let enc = encode_one(h, k, &grid, &parent_face_new, None)?;
+            parent_face_new = enc.face_new;
+            parent = Some(enc.level);
+            continue;
+        };
+        let limit = LinePlacement::max_move_voxels() * extent / f64::from(1u32 << k.min(30));
+        let normals = vertex_normals(&h.levels[k].mesh);
+        let positions = &h.levels[k].mesh.vertices.positions;
+        let candidates: &[u8] =
+            if enc.mode == Mode::Lattice { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
+        // Per candidate predictor: the moves (canonical vertex, new position), how many stay, and
+        // the cost (squared moves, a stay counting as a move of the limit).
+        let mut best: Option<Candidate> = None;
+        for &predictor in candidates {
+            let lines = prediction_lines(&enc, pl, k as u32, grid.bits, predictor);
+            let mut moves = Vec::new();
+            let (mut kept, mut none, mut cost) = (0usize, 0usize, 0.0);
+            for (v, line) in lines.iter().enumerate() {
+                let old = enc.vertex_old[v] as usize;
+                let Some(line) = line else {
+                    none += 1;
+                    continue;
+                };
+                if let Some(p) = slide(line, positions[old], normals[old], &grid, limit, guard.as_ref()) {
+                    cost += (p - positions[old]).length_squared();
+                    moves.push((enc.vertex_old[v], p));
+                } else {
+                    kept += 1;
+                    cost += limit * limit;
+                }
+            }
+            if best.as_ref().is_none_or(|b| cost < b.0) {
+                best = Some((cost, moves, kept, none));
+            }
+        }
+        let (_, moves, kept, none) = best.expect("one candidate at least");
+        stats.kept += kept;
+        stats.without_line += none;
+        stats.placed += moves.len();
+        let positions = &mut h.levels[k].mesh.vertices.positions;
+        let mut moved = vec![false; positions.len()];
+        for (old, p) in moves {
+            let d = (p - positions[old as usize]).length();
+            stats.max_move = stats.max_move.max(d);
+            sum_sq += d * d;
+            positions[old as usize] = p;
+            moved[old as usize] = true;
+        }
+        snap(positions, &grid, guard.as_ref(), |v| !moved[v]);
+        // The level as the encoder will now see it: the parent of the next.
+        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
+        parent_face_new = enc.face_new;
+        parent = Some(enc.level);
+    }
+    if stats.placed > 0 {
+        stats.rms_move = (sum_sq / stats.placed as f64).sqrt();
+    }
+    Ok(stats)
+}
+
+fn encode_one(
+    h: &Hierarchy,
+    k: usize,
+    grid: &Grid,
+    parent_face_new: &[u32],
+    parent: Option<&PlainLevel>,
+) -> Result<Encoded, EncodeError> {
+    let input = input_level(h, k, grid, parent_face_new)?;
+    encode::encode_level(k as u32, &input, parent, grid.exact, grid.tied, grid.bits)
+}
+
+/// Every canonical vertex's prediction line under lattice predictor `predictor` (spec §6.6).
+fn prediction_lines(enc: &Encoded, parent: &PlainLevel, k: u32, bits: u32, predictor: u8) -> Vec<Option<Line>> {
+    let level = &enc.level;
+    let topo = Topo {
+        mode: enc.mode,
+        level: k,
+        bits,
+        offsets: &level.offsets,
+        indices: &level.indices,
+        parents: &level.parents,
+        quadrants: &level.quadrants,
+        corner_pos: &enc.pos,
+        vertex_corners: level.corners.as_deref(),
+        parent_quads: (enc.mode == Mode::Lattice).then_some(&enc.parent_quads[..]),
+        predictor,
+        lines: true,
+    };
+    let mut out = vec![None; level.q.len()];
+    let mut q = vec![[0i64; 3]; level.q.len()];
+    let pp = parent.as_parent();
+    let _: Result<(), ()> = geometry_pass(&topo, Some(&pp), &mut q, |v, pr| {
+        out[v] = pr.line;
+        Ok((level.q[v], None))
+    });
+    out
+}
+
+/// Where `x` lands when it slides along `line` to its tangent plane (normal `n`), snapped to the
+/// line's nearest grid point; `None` when it should stay.
+fn slide(line: &Line, x: DVec3, n: DVec3, grid: &Grid, limit: f64, guard: Option<&Aabb>) -> Option<DVec3> {
+    if let Some(b) = guard {
+        // A vertex on the bounding box holds the grid in place.
+        if (0..3).any(|a| x[a] <= b.min[a] || x[a] >= b.max[a]) {
+            return None;
+        }
+    }
+    let u = DVec3::from_array(line.u);
+    let un = u.dot(n);
+    if n == DVec3::ZERO || un.abs() < MIN_COSINE * u.length() {
+        return None;
+    }
+    let base = grid.position(line.base);
+    // World point of parameter s: base + s * step * u.
+    let s = (x - base).dot(n) / (un * grid.step);
+    if !s.is_finite() || s.abs() > LINE_PARAM_LIMIT as f64 {
+        return None;
+    }
+    let q = line.point(s.round() as i64);
+    if q.iter().any(|c| c.abs() > GRID_LIMIT) {
+        return None;
+    }
+    let p = grid.position(q);
+    let back = grid.quantize(p);
+    if back != DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) || (p - x).length() > limit {
+        return None;
+    }
+    if let Some(b) = guard {
+        if (0..3).any(|a| p[a] < b.min[a] || p[a] > b.max[a]) {
+            return None;
+        }
+    }
+    Some(p)
+}
+
+/// Moves each selected position to its grid point (at most half a step per axis), unless that
+/// would change an untied grid's bounding box.
+fn snap(positions: &mut [DVec3], grid: &Grid, guard: Option<&Aabb>, selected: impl Fn(usize) -> bool) {
+    for (v, x) in positions.iter_mut().enumerate() {
+        if !selected(v) {
+            continue;
+        }
+        let g = grid.quantize(*x);
+        if g.abs().max_element() > GRID_LIMIT as f64 {
+            continue; // the encoder reports it
+        }
+        let p = grid.position([g.x as i64, g.y as i64, g.z as i64]);
+        let inside = guard
+            .is_none_or(|b| (0..3).all(|a| b.min[a] < x[a] && x[a] < b.max[a] && b.min[a] <= p[a] && p[a] <= b.max[a]));
+        if inside && grid.quantize(p) == g {
+            *x = p;
+        }
+    }
+}
+
+/// Unit area-weighted vertex normals (Newell's normal of every face, summed at its corners); zero
+/// where they cancel.
+fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
+    let pos = &mesh.vertices.positions;
+    let mut out = vec![DVec3::ZERO; pos.len()];
+    for f in mesh.faces.iter() {
+        let mut n = DVec3::ZERO;
+        for (i, &a) in f.iter().enumerate() {
+            let b = f[(i + 1) % f.len()];
+            n += pos[a as usize].cross(pos[b as usize]);
+        }
+        for &a in f {
+            out[a as usize] += n;
+        }
+    }
+    for n in &mut out {
+        *n = n.try_normalize().unwrap_or(DVec3::ZERO);
+    }
+    out
+}
