@@ -1,7 +1,7 @@
 // Opens the viewer page on one GLB in headless Chromium, moves the camera near and far, saves a
 // screenshot, and prints a JSON result:
-//   { "loaded": true, "levels": [...], "near": {distance, level, name, coverage},
-//     "far": {...}, "screenshot": PATH, "triangles": N }
+//   { "loaded": true, "lod": {radius, distances, names}, "near": {distance, level, name, coverage},
+//     "far": {...}, "steps": [{distance, level, name} per level], "screenshot": PATH, "triangles": N }
 //
 //   node check-page.mjs MODEL.glb SCREENSHOT.png [CHROMIUM]
 //
@@ -68,6 +68,14 @@ try {
       const farDistance = Math.max(r * 40, ...finite.map((d) => d * 1.5));
       const out = { loaded: true, radius: r, lod, triangles: s.triangles, extensionsUsed: s.extensionsUsed };
       out.far = { distance: farDistance, ...s.setDistance(farDistance), coverage: s.coverage() };
+      // One camera distance inside each level's range (geometric mean of its switch distances).
+      out.steps = lod
+        ? lod.distances.map((d, k) => {
+            const next = lod.distances[k + 1];
+            const distance = k === 0 ? Math.min(r * 2.6, next / 2) : Number.isFinite(next) ? Math.sqrt(d * next) : d * 1.5;
+            return { distance, ...s.setDistance(distance) };
+          })
+        : [];
       out.near = { distance: r * 2.6, ...s.setDistance(r * 2.6), coverage: s.coverage() };
       return out;
     });

@@ -36,13 +36,15 @@ async function main() {
   const gltf = await loader.loadAsync(url);
   scene.add(gltf.scene);
   const lods = await applyMsftLod(gltf, FOV);
-  const box = new THREE.Box3().setFromObject(gltf.scene);
-  const sphere = box.getBoundingSphere(new THREE.Sphere());
+  const lod = lods[0] || null;
+  // Frame the most detailed level (coarse levels, such as a root cube, can be much larger).
+  const framed = lod ? lod.levels[0].object : gltf.scene;
+  gltf.scene.updateMatrixWorld(true);
+  const sphere = new THREE.Box3().setFromObject(framed).getBoundingSphere(new THREE.Sphere());
   let triangles = 0; // over every level
   gltf.scene.traverse((o) => {
     if (o.isMesh) triangles += (o.geometry.index ? o.geometry.index.count : o.geometry.attributes.position.count) / 3;
   });
-  const lod = lods[0] || null;
   // Places the camera `distance` from the model's centre (looking along -Z, slightly from above),
   // renders, and returns the shown level's index and name.
   state.setDistance = (distance) => {

@@ -69,30 +69,8 @@ fn check_options(opts: &ExportOptions) -> Result<Option<f64>, ExportError> {
 pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) -> Result<Built, ExportError> {
     let crease_cos = check_options(opts)?;
     let chain = chain(h, opts.levels)?;
-    let mut streams = Vec::with_capacity(chain.len());
-    let mut errors = Vec::with_capacity(chain.len());
-    for &k in &chain {
-        let mesh = &h.levels[k].mesh;
-        mesh.check_indices().map_err(|e| ExportError::invalid(format!("level {k}: {e}")))?;
-        if mesh.faces.is_empty() {
-            return Err(ExportError::invalid(format!(
-                "level {k} has no faces: glTF export writes surfaces (reconstruct a point cloud first)"
-            )));
-        }
-        let s = geometry::build(mesh, crease_cos, opts.colors);
-        if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
-            return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
-        }
-        if let Some(p) = s.positions.iter().find(|p| !p.as_vec3().is_finite()) {
-            return Err(ExportError::limit(format!("level {k}: position {p} is beyond the range of f32")));
-        }
-        errors.push(lod::mean_edge_length(mesh));
-        streams.push(s);
-    }
-    let (lo, hi) = streams
-        .iter()
-        .flat_map(|s| &s.positions)
-        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (streams, errors) = level_streams(h, &chain, crease_cos, opts.colors)?;
+    let (lo, hi) = bounding_box(streams.iter().flat_map(|s| &s.positions));
     let grid = opts.quantize.then(|| Grid::new(lo, hi));
     let any_colors = streams.iter().any(|s| s.colors.is_some());
 
@@ -105,67 +83,23 @@ pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) 
         bytes: 0,
     };
     for (i, (&k, s)) in chain.iter().zip(&streams).enumerate() {
-        let level = &h.levels[k];
         let primitive = doc.primitive(s, grid.as_ref())?;
-        let quads = level.mesh.faces.iter().filter(|f| f.len() == 4).count();
-        let extras = json!({ "octowrap": {
-            "level": k,
-            "level_count": h.levels.len(),
-            "source_faces": level.mesh.faces.len(),
-            "source_quads": quads,
-            "source_vertices": level.mesh.vertex_count(),
-            "geometric_error": errors[i],
-            "geometric_error_kind": "mean edge length",
-        }});
-        doc.root.meshes.push(json::Mesh {
-            extensions: None,
-            extras: raw(&extras),
-            name: Some(format!("level {k}")),
-            primitives: vec![primitive],
-            weights: None,
-        });
+        doc.root.meshes.push(level_mesh(h, k, errors[i], primitive));
         summary.levels.push(LevelSummary {
             level: k,
-            source_faces: level.mesh.faces.len(),
+            source_faces: h.levels[k].mesh.faces.len(),
             vertices: s.positions.len(),
             triangles: s.indices.len() / 3,
             u32_indices: s.positions.len() > usize::from(u16::MAX),
             geometric_error: errors[i],
         });
     }
-    // Nodes: node i shows mesh i; node 0 (the finest) carries the chain and is the scene's root.
-    let finest_radius = streams[0]
-        .positions
-        .iter()
-        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let radius = 0.5 * (finest_radius.1 - finest_radius.0).length();
+    // The switching hints use the finest level's bounding sphere.
+    let (lo, hi) = bounding_box(&streams[0].positions);
     if chain.len() > 1 {
-        summary.screen_coverage = lod::screen_coverage(&errors, radius, opts.max_screen_error);
+        summary.screen_coverage = lod::screen_coverage(&errors, 0.5 * (hi - lo).length(), opts.max_screen_error);
     }
-    for (i, &k) in chain.iter().enumerate() {
-        let mut node = json::Node {
-            mesh: Some(json::Index::new(i as u32)),
-            name: Some(if i == 0 && chain.len() > 1 {
-                format!("level {k} (finest of the LOD chain)")
-            } else {
-                format!("level {k}")
-            }),
-            ..json::Node::default()
-        };
-        if let Some(g) = &grid {
-            node.translation = Some(g.origin.to_array());
-            node.scale = Some([g.step; 3]);
-        }
-        if i == 0 && chain.len() > 1 {
-            let ids: Vec<u32> = (1..chain.len() as u32).collect();
-            node.extensions = Some(json::extensions::scene::Node {
-                others: Map::from_iter([(LOD.to_owned(), json!({ "ids": ids }))]),
-                ..Default::default()
-            });
-            node.extras = raw(&json!({ "MSFT_screencoverage": summary.screen_coverage }));
-        }
-        doc.root.nodes.push(node);
-    }
+    doc.root.nodes = nodes(&chain, grid.as_ref(), &summary.screen_coverage);
     doc.root.scenes.push(json::Scene {
         extensions: None,
         extras: None,
@@ -174,7 +108,107 @@ pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) 
     });
     doc.root.scene = Some(json::Index::new(0));
     doc.root.materials.push(material(any_colors));
+    (summary.extensions_used, summary.extensions_required) = extensions(opts, chain.len());
+    doc.root.extensions_used.clone_from(&summary.extensions_used);
+    doc.root.extensions_required.clone_from(&summary.extensions_required);
+    doc.root.asset = asset(&opts.metadata);
+    let bin = doc.finish(bin_uri);
+    Ok(Built { root: doc.root, bin, summary })
+}
 
+/// Component-wise bounds of `points` (infinite and inverted when there are none).
+fn bounding_box<'a>(points: impl IntoIterator<Item = &'a DVec3>) -> (DVec3, DVec3) {
+    points
+        .into_iter()
+        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+}
+
+/// Checks every exported level and builds its streams; also returns the levels' geometric errors.
+fn level_streams(
+    h: &Hierarchy,
+    chain: &[usize],
+    crease_cos: Option<f64>,
+    colors: bool,
+) -> Result<(Vec<Streams>, Vec<f64>), ExportError> {
+    let mut streams = Vec::with_capacity(chain.len());
+    let mut errors = Vec::with_capacity(chain.len());
+    for &k in chain {
+        let mesh = &h.levels[k].mesh;
+        mesh.check_indices().map_err(|e| ExportError::invalid(format!("level {k}: {e}")))?;
+        if mesh.faces.is_empty() {
+            return Err(ExportError::invalid(format!(
+                "level {k} has no faces: glTF export writes surfaces (reconstruct a point cloud first)"
+            )));
+        }
+        let s = geometry::build(mesh, crease_cos, colors);
+        if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
+            return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
+        }
+        if let Some(p) = s.positions.iter().find(|p| !p.as_vec3().is_finite()) {
+            return Err(ExportError::limit(format!("level {k}: position {p} is beyond the range of f32")));
+        }
+        errors.push(lod::mean_edge_length(mesh));
+        streams.push(s);
+    }
+    Ok((streams, errors))
+}
+
+/// Level `k`'s mesh, its numbers in `extras.octowrap`.
+fn level_mesh(h: &Hierarchy, k: usize, error: f64, primitive: json::mesh::Primitive) -> json::Mesh {
+    let mesh = &h.levels[k].mesh;
+    let extras = json!({ "octowrap": {
+        "level": k,
+        "level_count": h.levels.len(),
+        "source_faces": mesh.faces.len(),
+        "source_quads": mesh.faces.iter().filter(|f| f.len() == 4).count(),
+        "source_vertices": mesh.vertex_count(),
+        "geometric_error": error,
+        "geometric_error_kind": "mean edge length",
+    }});
+    json::Mesh {
+        extensions: None,
+        extras: raw(&extras),
+        name: Some(format!("level {k}")),
+        primitives: vec![primitive],
+        weights: None,
+    }
+}
+
+/// Node `i` shows mesh `i` (level `chain[i]`); node 0, the finest, carries the `MSFT_lod` chain and
+/// its `MSFT_screencoverage` hints, and is the scene's only root.
+fn nodes(chain: &[usize], grid: Option<&Grid>, coverage: &[f64]) -> Vec<json::Node> {
+    let chained = chain.len() > 1;
+    chain
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| {
+            let mut node = json::Node {
+                mesh: Some(json::Index::new(i as u32)),
+                name: Some(if i == 0 && chained {
+                    format!("level {k} (finest of the LOD chain)")
+                } else {
+                    format!("level {k}")
+                }),
+                ..json::Node::default()
+            };
+            if let Some(g) = grid {
+                node.translation = Some(g.origin.to_array());
+                node.scale = Some([g.step; 3]);
+            }
+            if i == 0 && chained {
+                let ids: Vec<u32> = (1..chain.len() as u32).collect();
+                let mut ext = json::extensions::scene::Node::default();
+                ext.others.insert(LOD.to_owned(), json!({ "ids": ids }));
+                node.extensions = Some(ext);
+                node.extras = raw(&json!({ "MSFT_screencoverage": coverage }));
+            }
+            node
+        })
+        .collect()
+}
+
+/// `extensionsUsed` and `extensionsRequired`, sorted.
+fn extensions(opts: &ExportOptions, levels: usize) -> (Vec<String>, Vec<String>) {
     let mut used = Vec::new();
     let mut required = Vec::new();
     if opts.meshopt {
@@ -185,28 +219,25 @@ pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) 
         used.push(QUANTIZATION.to_owned());
         required.push(QUANTIZATION.to_owned());
     }
-    if chain.len() > 1 {
+    if levels > 1 {
         used.push(LOD.to_owned());
     }
     used.sort();
     required.sort();
-    doc.root.extensions_used.clone_from(&used);
-    doc.root.extensions_required.clone_from(&required);
-    summary.extensions_used = used;
-    summary.extensions_required = required;
+    (used, required)
+}
 
-    let metadata: Map<String, Value> =
-        opts.metadata.iter().map(|(k, v)| (k.clone(), Value::from(v.as_str()))).collect();
-    doc.root.asset = json::Asset {
+/// The asset: version, generator, and the input's metadata in `extras.octowrap`.
+fn asset(metadata: &[(String, String)]) -> json::Asset {
+    let metadata: Map<String, Value> = metadata.iter().map(|(k, v)| (k.clone(), Value::from(v.as_str()))).collect();
+    json::Asset {
         copyright: None,
         extensions: None,
         extras: if metadata.is_empty() { None } else { raw(&json!({ "octowrap": metadata })) },
         generator: Some(format!("octowrap-export {}", env!("CARGO_PKG_VERSION"))),
         min_version: None,
         version: "2.0".to_owned(),
-    };
-    let bin = doc.finish(bin_uri);
-    Ok(Built { root: doc.root, bin, summary })
+    }
 }
 
 /// The `i16` position grid shared by every exported level: world = origin + step * q.
@@ -360,7 +391,7 @@ impl Doc {
             let view = self.view(bytemuck::cast_slice(&q), 4, true, 0)?;
             self.accessor(view, n, ComponentType::I8, Type::Vec3, true, None)
         } else {
-            let f: Vec<[f32; 3]> = s.normals.iter().map(|v| v.to_array()).collect();
+            let f: Vec<[f32; 3]> = s.normals.iter().map(Vec3::to_array).collect();
             let view = self.view(bytemuck::cast_slice(&f), 12, true, 0)?;
             self.accessor(view, n, ComponentType::F32, Type::Vec3, false, None)
         };
@@ -376,7 +407,7 @@ impl Doc {
             attributes.insert(Valid(json::mesh::Semantic::Colors(0)), color);
         }
         // Indices: u16 while every index stays below the primitive-restart value 65535.
-        let indices = if n <= usize::from(u16::MAX) {
+        let indices = if u16::try_from(n).is_ok() {
             let i: Vec<u16> = s.indices.iter().map(|&i| i as u16).collect();
             let view = self.view(bytemuck::cast_slice(&i), 2, false, n)?;
             self.accessor(view, i.len(), ComponentType::U16, Type::Scalar, false, None)

@@ -1,4 +1,4 @@
-//! The export error, in the house taxonomy (Invalid, Unsupported, LimitExceeded, Io).
+//! The export error, in the house taxonomy (`Invalid`, `Unsupported`, `LimitExceeded`, `Io`).
 
 /// Why an export failed. `file` names the file concerned (the output for I/O errors; callers may
 /// name the input with [`ExportError::in_file`]); it is empty when no file is involved.

@@ -83,7 +83,9 @@ pub(crate) fn build(mesh: &Mesh, crease_cos: Option<f64>, with_colors: bool) -> 
                 ),
                 _ => smooth[v],
             };
-            let id = if let Some(&(_, id)) = made.iter().find(|(m, _)| m.to_array() == normal.to_array()) {
+            let id = if let Some(&(_, id)) =
+                made.iter().find(|(m, _)| m.to_array().map(f32::to_bits) == normal.to_array().map(f32::to_bits))
+            {
                 id
             } else {
                 let id = out.positions.len() as u32;

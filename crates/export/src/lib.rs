@@ -161,5 +161,5 @@ pub fn to_glb_with_summary(h: &Hierarchy, opts: &ExportOptions) -> Result<(Vec<u
 /// URI such as `model.bin`). Errors as [`to_glb`].
 pub fn to_gltf(h: &Hierarchy, opts: &ExportOptions, bin_uri: &str) -> Result<(Vec<u8>, Vec<u8>, Summary), ExportError> {
     let built = document::build(h, opts, Some(bin_uri))?;
-    write::gltf(built)
+    Ok(write::gltf(built))
 }

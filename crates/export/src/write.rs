@@ -1,5 +1,6 @@
 //! Containers: GLB (glTF 2.0 §4.4, binary glTF) and `.gltf` + `.bin`, written atomically.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
 
@@ -72,11 +73,11 @@ pub(crate) fn glb(built: Built) -> Result<(Vec<u8>, Summary), ExportError> {
 }
 
 /// Returns the pretty-printed JSON and the binary buffer.
-pub(crate) fn gltf(built: Built) -> Result<(Vec<u8>, Vec<u8>, Summary), ExportError> {
+pub(crate) fn gltf(built: Built) -> (Vec<u8>, Vec<u8>, Summary) {
     let json = json_bytes(&built, true);
     let mut summary = built.summary;
     summary.bytes = (json.len() + built.bin.len()) as u64;
-    Ok((json, built.bin, summary))
+    (json, built.bin, summary)
 }
 
 /// Exports `h` to `path`: GLB for `.glb`, or for `.gltf` the JSON plus `STEM.bin` beside it. Each
@@ -129,7 +130,7 @@ fn percent_encode(name: &str) -> String {
         if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
             out.push(b as char);
         } else {
-            out.push_str(&format!("%{b:02X}"));
+            let _ = write!(out, "%{b:02X}");
         }
     }
     out

@@ -73,6 +73,7 @@ pub struct Args {
 
 /// `--levels` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[allow(clippy::doc_markdown)] // shown by --help
 pub enum WhichLevels {
     /// Every level, chained with MSFT_lod.
     All,
