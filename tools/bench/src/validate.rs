@@ -40,7 +40,7 @@ pub fn report() {
     println!();
     let mesh = torus(1000, 500);
     let faces = mesh.faces.len();
-    let (secs, report) = best_of(3, || validate_mesh(&mesh, &Options::default()));
+    let (secs, report) = best_of(7, || validate_mesh(&mesh, &Options::default()));
     assert!(report.properties.watertight && report.properties.oriented, "the bench torus must be valid");
     println!("| tool | mesh | faces | time (s) | M faces/s | target |");
     println!("|---|---|---|---|---|---|");
@@ -48,6 +48,28 @@ pub fn report() {
         "| octowrap validate_mesh (1 thread, all checks but self-intersection) | torus | {faces} | {secs:.3} | {:.1} | >= 20 |",
         faces as f64 / secs / 1e6
     );
+    for (name, rel) in [
+        ("dragon (dragon_vrip)", "stanford-dragon/dragon_vrip.ply.gz"),
+        ("bunny (bun_zipper)", "stanford-bunny/bun_zipper.ply"),
+        ("lucy (decimated)", "stanford-lucy-decimated/lucy.ply"),
+    ] {
+        let Some(path) = crate::util::shared_data().map(|d| d.join(rel)).filter(|p| p.is_file()) else {
+            println!("| octowrap validate_mesh | {name} | – | – | – | skipped: ../shared/data/{rel} absent |");
+            continue;
+        };
+        match octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()) {
+            Ok(m) => {
+                let (secs, r) = best_of(5, || validate_mesh(&m, &Options::default()));
+                println!(
+                    "| octowrap validate_mesh (1 thread, all checks but self-intersection) | {name}: {} boundary loops | {} | {secs:.3} | {:.1} | – |",
+                    r.counts.boundary_loops,
+                    m.faces.len(),
+                    m.faces.len() as f64 / secs / 1e6
+                );
+            }
+            Err(e) => println!("| octowrap validate_mesh | {name} | – | – | – | not measured: {e} |"),
+        }
+    }
     match trimesh_time(&mesh) {
         Ok((t, watertight)) => println!(
             "| trimesh is_watertight + is_winding_consistent (fresh mesh, process=False) | torus | {faces} | {t:.3} | {:.1} | (comparison; watertight={watertight}) |",
