@@ -93,3 +93,34 @@ fn broken_files_get_clear_errors() {
     let out = octowrap(&["extract", f.to_str().unwrap(), "--level", "0", "-o", out_path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
+
+/// `reconstruct -o X.mrq` places vertices on their prediction lines (spec §6.6): the file is
+/// smaller than with --keep-positions, and --all-levels writes exactly the positions it holds.
+#[test]
+fn reconstructed_mrq_holds_the_placed_positions_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let kitten = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz");
+    let (placed, kept, levels) = (dir.path().join("p.mrq"), dir.path().join("k.mrq"), dir.path().join("levels"));
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["reconstruct", kitten.to_str().unwrap(), "-o", out.to_str().unwrap(), "--level", "5"];
+        args.extend(extra);
+        let o = octowrap(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+    };
+    run(&placed, &["--bits", "12", "--all-levels", levels.to_str().unwrap()]);
+    run(&kept, &["--bits", "12", "--keep-positions"]);
+    let (a, b) = (std::fs::metadata(&placed).unwrap().len(), std::fs::metadata(&kept).unwrap().len());
+    assert!(a * 10 < b * 9, "placed {a} bytes, kept {b}");
+    let file = octowrap_format::read_path(&placed, &octowrap_format::DecodeOptions::default()).unwrap();
+    for (k, level) in file.hierarchy.levels.iter().enumerate() {
+        let ply = octowrap_io::read_path(&levels.join(format!("level-{k}.ply")), &octowrap_io::ReadOptions::default())
+            .unwrap();
+        // The same positions (the MRQ lists them in its canonical order).
+        let key = |p: &octowrap_mesh::DVec3| p.to_array().map(f64::to_bits);
+        let mut want: Vec<_> = level.mesh.vertices.positions.iter().map(key).collect();
+        let mut got: Vec<_> = ply.vertices.positions.iter().map(key).collect();
+        want.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, want, "level {k}");
+    }
+}

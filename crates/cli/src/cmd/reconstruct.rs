@@ -24,8 +24,12 @@ use crate::progress;
 /// subdivides the last supported level and maps the new vertices onto the points.
 ///
 /// Output: PLY or OBJ (or OFF, STL) get one level, the finest or --level K; an .mrq file gets the
-/// whole hierarchy with its parent links. --all-levels DIR also writes DIR/level-K.ply for every
-/// level K from 0 (the root cube).
+/// whole hierarchy with its parent links. For .mrq output the vertices first slide along their
+/// tangent planes onto the lines the MRQ decoder predicts from the level above, and onto the
+/// quantization grid, so that each costs one number and the file holds them exactly (about 40 %
+/// smaller; --keep-positions writes them as reconstructed, within half a grid step). --all-levels
+/// DIR also writes DIR/level-K.ply for every level K from 0 (the root cube), with the positions
+/// the .mrq output holds.
 ///
 /// Examples:
 ///   octowrap reconstruct bunny.ply -o bunny-mesh.ply
@@ -83,6 +87,10 @@ pub struct Args {
     pub input_args: InputArgs,
     #[command(flatten)]
     pub mrq: mrq::MrqWriteArgs,
+    /// MRQ output: keep the reconstructed positions (each decoded vertex within half a grid
+    /// step) instead of placing vertices on their prediction lines.
+    #[arg(long)]
+    pub keep_positions: bool,
 }
 
 fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
@@ -138,7 +146,12 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         })
     });
     bar.finish_and_clear();
-    let r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
+    let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
+    let mrq_opts = args.mrq.options(false, &args.input);
+    if is_mrq && !args.keep_positions {
+        octowrap_format::place_on_prediction_lines(&mut r.hierarchy, &mrq_opts)
+            .context("placing vertices on their prediction lines")?;
+    }
     if args.timings {
         eprint!("{}", timing_table(&r));
     }
@@ -151,7 +164,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         }
     }
     if is_mrq {
-        mrq::write(&args.output, h, &args.mrq.options(false, &args.input))?;
+        mrq::write(&args.output, h, &mrq_opts)?;
     } else {
         let k = args.write_level.map_or(h.levels.len() - 1, |k| k as usize);
         let Some(level) = h.levels.get(k) else {
