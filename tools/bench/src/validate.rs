@@ -50,7 +50,7 @@ pub fn report() {
     );
     for (name, rel) in [
         ("dragon (dragon_vrip)", "stanford-dragon/dragon_vrip.ply.gz"),
-        ("bunny (bun_zipper)", "stanford-bunny/bun_zipper.ply"),
+        ("bunny (bun_zipper)", "stanford-bunny/reconstruction/bun_zipper.ply"),
         ("lucy (decimated)", "stanford-lucy-decimated/lucy.ply"),
     ] {
         let Some(path) = crate::util::shared_data().map(|d| d.join(rel)).filter(|p| p.is_file()) else {
