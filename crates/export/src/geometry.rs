@@ -69,18 +69,14 @@ pub(crate) fn build(mesh: &Mesh, crease_cos: Option<f64>, with_colors: bool) -> 
     let mut colors = src_colors.map(|_| Vec::new());
     // Per source vertex: the output vertices made from it, with their normals.
     let mut made: Vec<(Vec3, u32)> = Vec::new();
+    let mut fan = Fan::default();
     for v in 0..n {
         made.clear();
+        let creased = crease_cos.map(|cos| fan.creased(around(v), &unit_face, &cross, cos));
         for &t in around(v) {
             let t = t as usize;
-            let normal = match crease_cos {
-                Some(cos) if unit_face[t] != DVec3::ZERO => unit(
-                    around(v)
-                        .iter()
-                        .filter(|&&o| unit_face[o as usize].dot(unit_face[t]) >= cos)
-                        .map(|&o| cross[o as usize])
-                        .sum(),
-                ),
+            let normal = match &creased {
+                Some(Some(groups)) if unit_face[t] != DVec3::ZERO => fan.normal_of(groups, unit_face[t]),
                 _ => smooth[v],
             };
             let id = if let Some(&(_, id)) =
@@ -107,6 +103,56 @@ pub(crate) fn build(mesh: &Mesh, crease_cos: Option<f64>, with_colors: bool) -> 
     }
     out.colors = colors;
     out
+}
+
+/// Past this many differently oriented triangles around one vertex, the vertex keeps one smooth
+/// normal: the crease test compares every pair of orientations, and a hostile fan of millions of
+/// triangles must not take quadratic time.
+pub(crate) const MAX_CREASE_ORIENTATIONS: usize = 512;
+
+/// Scratch space for the crease normals around one vertex.
+#[derive(Default)]
+struct Fan {
+    /// (unit face normal bits, summed area vectors of the triangles with that normal).
+    groups: Vec<([u64; 3], DVec3)>,
+}
+
+impl Fan {
+    /// Groups the triangles `around` a vertex by exact orientation and gives each group the
+    /// area-weighted sum over the groups within the crease; `None` when the vertex has more than
+    /// [`MAX_CREASE_ORIENTATIONS`] orientations. Degenerate triangles take no part.
+    fn creased(&mut self, around: &[u32], unit_face: &[DVec3], cross: &[DVec3], cos: f64) -> Option<Vec<Vec3>> {
+        self.groups.clear();
+        for &t in around {
+            let u = unit_face[t as usize];
+            if u != DVec3::ZERO {
+                self.groups.push((u.to_array().map(f64::to_bits), cross[t as usize]));
+            }
+        }
+        self.groups.sort_unstable_by_key(|g| g.0);
+        self.groups.dedup_by(|b, a| {
+            let same = a.0 == b.0;
+            if same {
+                a.1 += b.1;
+            }
+            same
+        });
+        if self.groups.len() > MAX_CREASE_ORIENTATIONS {
+            return None;
+        }
+        let dirs: Vec<DVec3> = self.groups.iter().map(|g| DVec3::from_array(g.0.map(f64::from_bits))).collect();
+        Some(
+            dirs.iter()
+                .map(|&d| unit(dirs.iter().zip(&self.groups).filter(|(o, _)| o.dot(d) >= cos).map(|(_, g)| g.1).sum()))
+                .collect(),
+        )
+    }
+
+    /// The creased normal of a triangle with unit normal `u` (one of the grouped orientations).
+    fn normal_of(&self, normals: &[Vec3], u: DVec3) -> Vec3 {
+        let key = u.to_array().map(f64::to_bits);
+        self.groups.binary_search_by_key(&key, |g| g.0).map_or(FALLBACK_NORMAL, |i| normals[i])
+    }
 }
 
 /// `v` normalized to an `f32` unit vector, or [`FALLBACK_NORMAL`] when it has no direction.
@@ -161,6 +207,23 @@ mod tests {
         }
         // A crease wider than the fold keeps the surface smooth.
         assert_eq!(build(&m, Some(100f64.to_radians().cos()), false).positions.len(), 6);
+    }
+
+    #[test]
+    fn a_huge_fan_keeps_one_smooth_normal_in_linear_time() {
+        // A cone of 100 000 triangles around the apex, each with its own orientation.
+        let k = 100_000u32;
+        let mut positions = vec![DVec3::Z];
+        positions.extend((0..k).map(|i| {
+            let a = f64::from(i) / f64::from(k) * std::f64::consts::TAU;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        }));
+        let mut m = Mesh::from_positions(positions);
+        m.faces = FaceList::from_triangles(&(0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect::<Vec<_>>());
+        let s = build(&m, Some(0.99), false);
+        let apex: std::collections::BTreeSet<u32> = s.indices.chunks(3).map(|t| t[0]).collect();
+        assert_eq!(apex.len(), 1, "the apex is not split");
+        assert!((s.normals[*apex.first().unwrap() as usize] - Vec3::Z).length() < 1e-4);
     }
 
     #[test]

@@ -83,7 +83,9 @@ pub struct ExportOptions {
     /// `EXT_meshopt_compression` on every buffer view. Default: off.
     pub meshopt: bool,
     /// Faces meeting at more than this angle (degrees, `0..=180`) get separate normals along their
-    /// shared edge; `None` (the default) gives smooth normals everywhere.
+    /// shared edge; `None` (the default) gives smooth normals everywhere. A vertex with more than
+    /// 512 differently oriented triangles around it keeps one smooth normal (the crease test is
+    /// quadratic in that number).
     pub crease_angle_deg: Option<f64>,
     /// Write vertex colours (`COLOR_0`, linear, `u16` normalized) when the input has them.
     /// Default: on.
