@@ -270,35 +270,34 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
     let n = 1i64 << cells.level;
     let c = (x / h).round();
     let r2 = radius * radius;
-    for dz in -1..=0i64 {
-        for dy in -1..=0i64 {
-            for dx in -1..=0i64 {
-                let v = [c.x as i64 + dx, c.y as i64 + dy, c.z as i64 + dz];
-                if v.iter().any(|&a| a < 0 || a >= n) {
-                    continue;
+    // Per axis, the two voxel coordinates around the corner and the squared distance from `x` to
+    // their slabs. Voxels out of reach are skipped before they are looked up (a ball of half a
+    // voxel misses the far voxels when `x` is off the corner along two or three axes). Slabs are
+    // padded by 2^-20 (points are `f32`, 2^-24 of the cube, and may stick out of their voxel by
+    // that much), so no point within `radius` is ever skipped: the sums do not change.
+    let mut coord = [[0i64; 2]; 3];
+    let mut t2 = [[0.0f64; 2]; 3];
+    for a in 0..3 {
+        for k in 0..2 {
+            let v = c[a] as i64 - 1 + k as i64;
+            coord[a][k] = v;
+            let lo = v as f64 * h - PAD;
+            let t = (lo - x[a]).max(x[a] - (lo + h + 2.0 * PAD)).max(0.0);
+            t2[a][k] = t * t;
+        }
+    }
+    for o in 0..8usize {
+        let k = [o & 1, (o >> 1) & 1, o >> 2];
+        let v = [coord[0][k[0]], coord[1][k[1]], coord[2][k[2]]];
+        if v.iter().any(|&a| a < 0 || a >= n) || t2[0][k[0]] + t2[1][k[1]] + t2[2][k[2]] >= r2 {
+            continue;
+        }
+        if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
+            match cells.sub.get(i) {
+                Some(&sub) if sub != NO_SUB && cells.range(i).len() >= CHILD_MIN => {
+                    gather_children(tree, cells, i, sub, v, x, r2, m);
                 }
-                // Skip voxels out of reach before looking them up: the ball around a vertex near
-                // an edge midpoint, face or cell centre of this level's lattice reaches only 4, 2
-                // or 1 of the 8. The box is padded by 2^-20 (points are `f32`, 2^-24 of the
-                // cube, and may stick out of their voxel by that much), so no point within
-                // `radius` is ever skipped and the sums are the same as without the test.
-                let mut d2 = 0.0;
-                for a in 0..3 {
-                    let lo = v[a] as f64 * h - PAD;
-                    let t = (lo - x[a]).max(x[a] - (lo + h + 2.0 * PAD)).max(0.0);
-                    d2 += t * t;
-                }
-                if d2 >= r2 {
-                    continue;
-                }
-                if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
-                    match cells.sub.get(i) {
-                        Some(&sub) if sub != NO_SUB && cells.range(i).len() >= CHILD_MIN => {
-                            gather_children(tree, cells, i, sub, v, x, r2, m);
-                        }
-                        _ => gather(tree, cells, i, x, radius, m),
-                    }
-                }
+                _ => gather(tree, cells, i, x, radius, m),
             }
         }
     }

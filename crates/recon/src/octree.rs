@@ -148,7 +148,7 @@ impl Octree {
                 (morton::encode(q(u.x), q(u.y), q(u.z)), i as u32)
             })
             .collect();
-        pairs.par_sort_unstable();
+        sort_codes(&mut pairs);
         let distinct = 1 + pairs.windows(2).filter(|w| w[0].0 != w[1].0).count();
         let local: Vec<Vec3> = pairs
             .par_iter()
@@ -256,6 +256,40 @@ impl Octree {
             coarse.moments = out;
         }
     }
+}
+
+/// Sorts `(code, index)` pairs: a counting pass by the top 12 bits of the code (the level-4
+/// voxel), then the buckets in parallel. `par_sort_unstable` partitions its top levels on one
+/// thread; this spends one sequential pass and sorts the rest fully in parallel, into the same
+/// order (the pairs are distinct).
+fn sort_codes(pairs: &mut Vec<(u64, u32)>) {
+    const BITS: u32 = 12;
+    let shift = 3 * CODE_BITS - BITS;
+    let mut first = vec![0usize; (1 << BITS) + 1];
+    for p in pairs.iter() {
+        first[(p.0 >> shift) as usize + 1] += 1;
+    }
+    for i in 0..1 << BITS {
+        first[i + 1] += first[i];
+    }
+    let mut out = vec![(0u64, 0u32); pairs.len()];
+    let mut fill = first.clone();
+    for &p in pairs.iter() {
+        let b = (p.0 >> shift) as usize;
+        out[fill[b]] = p;
+        fill[b] += 1;
+    }
+    let mut buckets = Vec::with_capacity(1 << BITS);
+    let mut rest = out.as_mut_slice();
+    for w in first.windows(2) {
+        let (bucket, tail) = rest.split_at_mut(w[1] - w[0]);
+        if !bucket.is_empty() {
+            buckets.push(bucket);
+        }
+        rest = tail;
+    }
+    buckets.into_par_iter().for_each(<[(u64, u32)]>::sort_unstable);
+    *pairs = out;
 }
 
 /// The 26 neighbour offsets plus the centre, in a fixed order.
