@@ -77,6 +77,27 @@ impl Csr {
         Self { off, items }
     }
 
+    /// Vertex -> incident polygons of `faces` (a polygon using a vertex twice is listed twice).
+    pub(crate) fn build_polygons(n: usize, faces: &octowrap_mesh::FaceList) -> Self {
+        let mut off = vec![0u32; n + 1];
+        for &v in faces.indices() {
+            off[v as usize + 1] += 1;
+        }
+        for i in 0..n {
+            off[i + 1] += off[i];
+        }
+        let mut fill = off.clone();
+        let mut items = vec![0u32; off[n] as usize];
+        for (fi, f) in faces.iter().enumerate() {
+            for &v in f {
+                let slot = &mut fill[v as usize];
+                items[*slot as usize] = fi as u32;
+                *slot += 1;
+            }
+        }
+        Self { off, items }
+    }
+
     pub(crate) fn of(&self, v: u32) -> &[u32] {
         &self.items[self.off[v as usize] as usize..self.off[v as usize + 1] as usize]
     }

@@ -29,13 +29,22 @@
 //! selectable. The selected regions partition the finest level's faces.
 //!
 //! # Stitching, and why the result is crack-free
-//! Every output vertex is a finest-level vertex: the corners of the selected faces (all vertices
-//! of selected finest faces). A selected coarse face becomes the polygon of its region's boundary
-//! loop restricted to those kept vertices, so a coarse face beside finer ones gains their corners
-//! on its edges (a T-junction becomes a polygon corner). Two neighbouring regions share the
-//! boundary path between them; both restrict it to the same kept vertices, so they produce the
-//! same polygon edges in opposite directions: no gaps and no T-junctions. Boundary edges appear
-//! only on the finest level's own boundary.
+//! Every output vertex is a finest-level vertex. *Kept* vertices are the corners of the selected
+//! faces (all vertices of selected finest faces) and the junctions: vertices where three or more
+//! selected regions meet, the finest level's boundary counting as one. A selected coarse face
+//! becomes the polygon of its region's boundary loop restricted to the kept vertices, so a coarse
+//! face beside finer ones gains their corners on its edges (a T-junction becomes a polygon corner).
+//! Between two kept vertices, a region's boundary runs along exactly one neighbour (or the finest
+//! boundary), since any change of neighbour is a junction; the neighbour restricts the same path
+//! to the same kept vertices, so both produce the same polygon edge in opposite directions: no
+//! gaps, no T-junctions, and boundary edges only on the finest level's own boundary. Regions are
+//! disks whose boundary vertices are manifold in the finest level (checked), so replacing a
+//! region by its polygon creates no non-manifold vertex or edge.
+//!
+//! Each selected coarse face is then checked as it will be output (its polygon with the kept
+//! vertices, fan-triangulated from its first corner as [`Mesh::triangles`] does): if that polygon
+//! is farther than the tolerance from its region, by the same distance, the face is refused and the
+//! selection redone. So every output face is within the tolerance of the finest level.
 
 use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Mesh, PointCloud};
@@ -209,55 +218,104 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
             c
         })
         .collect();
+    // How many finest faces use each vertex (a region's interior vertices must be used by the
+    // region only).
+    let mut uses = vec![0u32; fpos.len()];
+    for &v in fine.faces.indices() {
+        uses[v as usize] += 1;
+    }
+    // Vertices where the finest level is not manifold (several fans, non-manifold or mis-oriented
+    // edges): no region may have one on its boundary, so every defect stays where it is.
+    let tris = fine.triangles();
+    let adj = crate::collapse::Csr::build(fpos.len(), &tris);
+    let kinds = crate::collapse::classify(fpos.len(), &tris, &adj, false);
+    let defect: Vec<bool> = kinds.iter().map(|&k| k == crate::collapse::Kind::Frozen).collect();
+    let faces_of = crate::collapse::Csr::build_polygons(fpos.len(), &fine.faces);
     let mut info: Vec<Vec<Option<Info>>> = (0..=last).map(|_| Vec::new()).collect();
     for j in (0..last).rev() {
         let (below, here) = info.split_at_mut(j + 1);
         let next = &here[0];
-        let ctx = Context { h, fpos, last, next };
+        let ctx = Context { h, fpos, last, next, uses: &uses, defect: &defect };
         below[j] =
             (0..h.levels[j].mesh.faces.len()).into_par_iter().map(|f| ctx.complete(j, f, children[j][f])).collect();
     }
-    let within = |i: &Info| match criterion {
-        CutCriterion::MaxError(e) => i.error <= *e,
+    let tolerance = |i: &Info| match criterion {
+        CutCriterion::MaxError(e) => *e,
         CutCriterion::View(c) => {
             let p = DVec3::from(c.position);
-            let d = (i.bounds.min - p).max(p - i.bounds.max).max(DVec3::ZERO).length();
-            i.error <= c.tolerance_at(d)
+            c.tolerance_at((i.bounds.min - p).max(p - i.bounds.max).max(DVec3::ZERO).length())
         }
     };
-    // Top-down selection from every root, children in quadrant order.
-    let mut selected: Vec<(usize, u32)> = Vec::new();
-    let mut stack: Vec<(usize, u32)> = Vec::new();
-    for (j, level) in h.levels.iter().enumerate() {
-        for (f, o) in level.origins.iter().enumerate().rev() {
-            if j == 0 || *o == FaceOrigin::Created {
-                stack.push((j, f as u32));
-            }
-        }
-        while let Some((j, f)) = stack.pop() {
-            if j == last {
-                selected.push((j, f));
-                continue;
-            }
-            if info[j][f as usize].as_ref().is_some_and(within) {
-                selected.push((j, f));
-                continue;
-            }
-            for &c in children[j][f as usize].iter().rev() {
-                if c != u32::MAX {
-                    stack.push((j + 1, c));
+    let info_of = |j: usize, f: u32| info[j].get(f as usize).and_then(Option::as_ref);
+    // Select, then check each selected coarse face as it will be output (with the corners of
+    // finer neighbours on its edges, fan-triangulated); faces over their tolerance are banned and
+    // the selection redone, until none is (each round bans at least one face, so this ends).
+    let mut banned: Vec<Vec<bool>> = info.iter().map(|l| vec![false; l.len()]).collect();
+    let (selected, kept, errors) = loop {
+        let selected = select(h, &children, |j, f| {
+            !banned[j][f as usize] && info_of(j, f).is_some_and(|i| i.error <= tolerance(i))
+        });
+        let mut kept = vec![false; fpos.len()];
+        let mut owner = vec![u32::MAX; fine.faces.len()];
+        for (k, &(j, f)) in selected.iter().enumerate() {
+            match info_of(j, f) {
+                Some(i) if j < last => {
+                    i.corners.iter().for_each(|&v| kept[v as usize] = true);
+                    i.region.iter().for_each(|&g| owner[g as usize] = k as u32);
+                }
+                _ => {
+                    fine.faces.face(f as usize).iter().for_each(|&v| kept[v as usize] = true);
+                    owner[f as usize] = k as u32;
                 }
             }
         }
-    }
-    let info_of = |j: usize, f: u32| info[j].get(f as usize).and_then(Option::as_ref);
-    let mut kept = vec![false; fpos.len()];
-    for &(j, f) in &selected {
-        match info_of(j, f) {
-            Some(i) if j < last => i.corners.iter().for_each(|&v| kept[v as usize] = true),
-            _ => fine.faces.face(f as usize).iter().for_each(|&v| kept[v as usize] = true),
+        // Also keep the junctions: vertices where three or more selected faces meet, counting the
+        // finest level's boundary as one (away from corners, a region's boundary meets another
+        // region's only along paths, and both skip the same vertices).
+        for (v, k) in kept.iter_mut().enumerate() {
+            if *k {
+                continue;
+            }
+            let mut seen = [u32::MAX; 3];
+            let mut n = usize::from(kinds[v] == crate::collapse::Kind::Border);
+            for &g in faces_of.of(v as u32) {
+                let o = owner[g as usize];
+                if n < 3 && !seen[..n].contains(&o) {
+                    seen[n] = o;
+                    n += 1;
+                }
+            }
+            *k = n >= 3;
         }
-    }
+        let errors: Vec<f64> = selected
+            .par_iter()
+            .map(|&(j, f)| match info_of(j, f) {
+                Some(i) if j < last => {
+                    let poly: Vec<u32> = i.boundary.iter().copied().filter(|&v| kept[v as usize]).collect();
+                    if poly.len() == 4 {
+                        return i.error;
+                    }
+                    let p = |v: u32| fpos[v as usize];
+                    let fan: Vec<[DVec3; 3]> =
+                        poly.windows(2).skip(1).map(|w| [p(poly[0]), p(w[0]), p(w[1])]).collect();
+                    region_distance(fpos, &fine.faces, &i.region, &fan)
+                }
+                _ => 0.0,
+            })
+            .collect();
+        let mut changed = false;
+        for (&(j, f), &e) in selected.iter().zip(&errors) {
+            if let Some(i) = info_of(j, f).filter(|_| j < last) {
+                if e > tolerance(i) {
+                    banned[j][f as usize] = true;
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            break (selected, kept, errors);
+        }
+    };
     let mut map = vec![u32::MAX; fpos.len()];
     let mut order = Vec::new();
     for (v, &k) in kept.iter().enumerate() {
@@ -268,12 +326,11 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     }
     let mut faces = FaceList::default();
     let mut per_level = vec![0usize; last + 1];
-    let mut max_error = 0.0f64;
+    let max_error = errors.iter().copied().fold(0.0, f64::max);
     for &(j, f) in &selected {
         per_level[j] += 1;
         match info_of(j, f) {
             Some(i) if j < last => {
-                max_error = max_error.max(i.error);
                 faces.push_iter(i.boundary.iter().filter(|&&v| kept[v as usize]).map(|&v| map[v as usize]));
             }
             _ => faces.push_iter(fine.faces.face(f as usize).iter().map(|&v| map[v as usize])),
@@ -299,12 +356,43 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     Ok(Cutted { mesh: Mesh { vertices, faces }, report })
 }
 
+/// Top-down from every root (level-0 and created faces), children in quadrant order: a face is
+/// selected when it is finest or `accept` says so, otherwise its children are visited.
+fn select(h: &Hierarchy, children: &[Vec<[u32; 4]>], accept: impl Fn(usize, u32) -> bool) -> Vec<(usize, u32)> {
+    let last = h.levels.len() - 1;
+    let mut selected = Vec::new();
+    let mut stack: Vec<(usize, u32)> = Vec::new();
+    for (j, level) in h.levels.iter().enumerate() {
+        for (f, o) in level.origins.iter().enumerate().rev() {
+            if j == 0 || *o == FaceOrigin::Created {
+                stack.push((j, f as u32));
+            }
+        }
+        while let Some((j, f)) = stack.pop() {
+            if j == last || accept(j, f) {
+                selected.push((j, f));
+                continue;
+            }
+            for &c in children[j][f as usize].iter().rev() {
+                if c != u32::MAX {
+                    stack.push((j + 1, c));
+                }
+            }
+        }
+    }
+    selected
+}
+
 struct Context<'a> {
     h: &'a Hierarchy,
     fpos: &'a [DVec3],
     last: usize,
     /// Completeness of level `j + 1` (empty when `j + 1` is the finest level).
     next: &'a [Option<Info>],
+    /// Finest faces per finest vertex.
+    uses: &'a [u32],
+    /// Non-manifold finest vertices.
+    defect: &'a [bool],
 }
 
 impl Context<'_> {
@@ -337,50 +425,88 @@ impl Context<'_> {
         }
         let fine = &self.h.levels[self.last].mesh.faces;
         let boundary = boundary_loop(fine, &region, corners)?;
-        let error = self.distance(fine, &region, corners);
-        let bounds = Aabb::from_points(boundary.iter().map(|&v| &self.fpos[v as usize]));
-        Some(Info { corners, region, boundary, error, bounds })
-    }
-
-    /// The distance of the quad on `corners` to the region (see the module docs).
-    fn distance(&self, fine: &FaceList, region: &[u32], corners: [u32; 4]) -> f64 {
+        if !self.is_disk(fine, &region, &boundary) {
+            return None;
+        }
         let p = |v: u32| self.fpos[v as usize];
         let [a, b, c, d] = corners.map(p);
-        let quad: [[DVec3; 3]; 2] = if a.distance_squared(c) <= b.distance_squared(d) {
+        let quad = if a.distance_squared(c) <= b.distance_squared(d) {
             [[a, b, c], [a, c, d]]
         } else {
             [[a, b, d], [b, c, d]]
         };
-        let mut region_tris: Vec<[DVec3; 3]> = Vec::with_capacity(region.len() * 2);
-        let mut worst = 0.0f64;
-        for &g in region {
-            let face = fine.face(g as usize);
-            let mut m = Mesh::from_positions(face.iter().map(|&v| p(v)).collect());
-            m.faces.push_iter(0..face.len() as u32);
-            region_tris.extend(m.triangles().into_iter().map(|t| t.map(|i| m.vertices.positions[i as usize])));
-            for &v in face {
-                let q = p(v);
-                worst = worst.max(point_triangle_squared(q, &quad[0]).min(point_triangle_squared(q, &quad[1])));
+        let error = region_distance(self.fpos, fine, &region, &quad);
+        let bounds = Aabb::from_points(boundary.iter().map(|&v| &self.fpos[v as usize]));
+        Some(Info { corners, region, boundary, error, bounds })
+    }
+
+    /// Whether the region is a disk whose boundary is manifold in the finest level: no boundary
+    /// vertex is a non-manifold vertex of the finest level, the interior vertices (those off the
+    /// boundary loop) are used by region faces only, and `V - E + F = 1`.
+    fn is_disk(&self, fine: &FaceList, region: &[u32], boundary: &[u32]) -> bool {
+        if boundary.iter().any(|&v| self.defect[v as usize]) {
+            return false;
+        }
+        let mut corners: Vec<u32> = region.iter().flat_map(|&g| fine.face(g as usize).iter().copied()).collect();
+        let mut edges: Vec<(u32, u32)> = region
+            .iter()
+            .flat_map(|&g| {
+                let f = fine.face(g as usize);
+                (0..f.len()).map(move |k| (f[k].min(f[(k + 1) % f.len()]), f[k].max(f[(k + 1) % f.len()])))
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        corners.sort_unstable();
+        let mut on_loop = boundary.to_vec();
+        on_loop.sort_unstable();
+        let mut vertices = 0i64;
+        for run in corners.chunk_by(|a, b| a == b) {
+            vertices += 1;
+            let v = run[0];
+            if on_loop.binary_search(&v).is_err() && self.uses[v as usize] as usize != run.len() {
+                return false;
             }
         }
-        for t in &quad {
-            let (e1, e2) = ((t[1] - t[0]) / 3.0, (t[2] - t[0]) / 3.0);
-            for i in 0..3 {
-                for k in 0..3 - i {
-                    let (fi, fk) = (f64::from(i), f64::from(k));
-                    let mut pts = vec![t[0] + e1 * (fi + 1.0 / 3.0) + e2 * (fk + 1.0 / 3.0)];
-                    if i + k < 2 {
-                        pts.push(t[0] + e1 * (fi + 2.0 / 3.0) + e2 * (fk + 2.0 / 3.0));
-                    }
-                    for s in pts {
-                        let d = region_tris.iter().map(|r| point_triangle_squared(s, r)).fold(f64::INFINITY, f64::min);
-                        worst = worst.max(d);
-                    }
+        vertices - edges.len() as i64 + region.len() as i64 == 1
+    }
+}
+
+/// The distance between the triangles `surface` and the finest faces `region` (see the module
+/// docs): the larger of the largest distance from a region vertex to `surface`, and the largest
+/// distance from the centroids of the 3-fold subdivision of each triangle of `surface` to the
+/// region's triangles.
+fn region_distance(fpos: &[DVec3], fine: &FaceList, region: &[u32], surface: &[[DVec3; 3]]) -> f64 {
+    let p = |v: u32| fpos[v as usize];
+    let mut region_tris: Vec<[DVec3; 3]> = Vec::with_capacity(region.len() * 2);
+    let mut worst = 0.0f64;
+    let to_surface = |q: DVec3| surface.iter().map(|t| point_triangle_squared(q, t)).fold(f64::INFINITY, f64::min);
+    for &g in region {
+        let face = fine.face(g as usize);
+        let mut m = Mesh::from_positions(face.iter().map(|&v| p(v)).collect());
+        m.faces.push_iter(0..face.len() as u32);
+        region_tris.extend(m.triangles().into_iter().map(|t| t.map(|i| m.vertices.positions[i as usize])));
+        for &v in face {
+            worst = worst.max(to_surface(p(v)));
+        }
+    }
+    for t in surface {
+        let (e1, e2) = ((t[1] - t[0]) / 3.0, (t[2] - t[0]) / 3.0);
+        for i in 0..3 {
+            for k in 0..3 - i {
+                let (fi, fk) = (f64::from(i), f64::from(k));
+                let mut pts = vec![t[0] + e1 * (fi + 1.0 / 3.0) + e2 * (fk + 1.0 / 3.0)];
+                if i + k < 2 {
+                    pts.push(t[0] + e1 * (fi + 2.0 / 3.0) + e2 * (fk + 2.0 / 3.0));
+                }
+                for s in pts {
+                    let d = region_tris.iter().map(|r| point_triangle_squared(s, r)).fold(f64::INFINITY, f64::min);
+                    worst = worst.max(d);
                 }
             }
         }
-        worst.sqrt()
     }
+    worst.sqrt()
 }
 
 /// The boundary loop of `region` (one simple loop through the corners in order, starting at
