@@ -161,11 +161,12 @@ fn quantized_positions_stay_within_half_a_step() {
 
 #[test]
 fn meshopt_views_decode_to_the_plain_buffers() {
-    let h = hierarchy();
-    for quantize in [false, true] {
-        let plain = to_glb(&h, &opts(Levels::All, quantize, false)).unwrap();
-        let (packed, summary) = to_glb_with_summary(&h, &opts(Levels::All, quantize, true)).unwrap();
-        if let Some(r) = save_and_validate(&format!("cube5_all_meshopt_q{}.glb", u8::from(quantize)), &packed) {
+    // The hierarchy has u16 indices; the 255 x 255 grid u32 indices and colours.
+    let inputs = [("cube5_all", hierarchy()), ("grid255", Hierarchy::single(grid(255)))];
+    for ((name, h), quantize) in inputs.iter().flat_map(|i| [(i, false), (i, true)]) {
+        let plain = to_glb(h, &opts(Levels::All, quantize, false)).unwrap();
+        let (packed, summary) = to_glb_with_summary(h, &opts(Levels::All, quantize, true)).unwrap();
+        if let Some(r) = save_and_validate(&format!("{name}_meshopt_q{}.glb", u8::from(quantize)), &packed) {
             assert_counts(&r, &summary);
         }
         assert!(packed.len() < plain.len(), "meshopt makes the file smaller: {} vs {}", packed.len(), plain.len());
