@@ -1,0 +1,129 @@
+//! `octowrap decimate` on the command line: meshes in and out of every writable format, MRQ cuts
+//! with a fixed error and with a camera, the JSON report, and exit code 2 for what cannot run.
+
+mod common;
+
+use std::path::Path;
+
+use common::{octowrap, root, text};
+use octowrap_io::{ReadOptions, read_path};
+use octowrap_validate::{Options, validate_mesh};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn decimates_a_quad_torus_into_every_format() {
+    let input = root().join("fixtures/meshes/valid/torus_quads.obj");
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["ply", "obj", "off", "stl"] {
+        let out_path = dir.path().join(format!("t.{ext}"));
+        let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--ratio", "0.5", "--json"]);
+        assert!(out.status.success(), "{ext}: {}", text(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(report["mode"], "decimate");
+        assert_eq!(report["input_faces"], 48);
+        let mut o = Options::default();
+        o.weld = ext == "stl";
+        let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
+        let r = validate_mesh(&mesh, &o);
+        assert!(r.properties.watertight && r.properties.oriented, "{ext}: {:?}", r.findings);
+        assert_eq!(r.components[0].genus, Some(1), "{ext}");
+    }
+}
+
+#[test]
+fn error_bounds_in_units_and_percent_and_measurement() {
+    let input = root().join("fixtures/meshes/valid/open_box.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("box.ply");
+    for bound in ["0.5%", "0.001"] {
+        let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--max-error", bound, "--measure", "--json"]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(report["measured"]["hausdorff"].as_f64().unwrap() < 1e-9, "a flat box decimates exactly");
+        assert!(text(&out.stderr).contains("measured: Hausdorff"));
+    }
+    let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--target-faces", "3", "--lock-border"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
+    assert_eq!(validate_mesh(&mesh, &Options::default()).counts.boundary_loops, 1);
+}
+
+#[test]
+fn mrq_cuts_with_an_error_and_with_a_camera() {
+    let input = root().join("fixtures/format/valid/cube3_subdivision_q10.mrq");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("cut.off");
+    let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--max-error", "1", "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["mode"], "cut");
+    assert_eq!(report["output_faces"], 6, "the coarsest level everywhere");
+    let camera = dir.path().join("camera.json");
+    std::fs::write(
+        &camera,
+        r#"{"position": [3, 3, 3], "target": [0.5, 0.5, 0.5], "fov_y_degrees": 45,
+            "viewport_height_px": 1080, "pixel_error": 1}"#,
+    )
+    .unwrap();
+    let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--view", s(&camera), "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
+    let r = validate_mesh(&mesh, &Options::default());
+    assert!(r.properties.watertight && r.properties.oriented, "{:?}", r.findings);
+    // An MRQ output is a one-level file.
+    let mrq_out = dir.path().join("cut.mrq");
+    let out = octowrap(&["decimate", s(&input), "-o", s(&mrq_out), "--max-error", "0.05"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let back = octowrap_format::read_path(&mrq_out, &octowrap_format::DecodeOptions::default()).unwrap();
+    assert_eq!(back.hierarchy.levels.len(), 1);
+}
+
+#[test]
+fn what_cannot_run_exits_with_2() {
+    let input = root().join("fixtures/meshes/valid/cube_quads.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("x.ply");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["decimate", s(&input), "-o", s(&out_path)],
+        vec!["decimate", s(&input), "-o", s(&out_path), "--ratio", "1.5"],
+        vec!["decimate", s(&input), "-o", s(&out_path), "--max-error", "-1"],
+        vec!["decimate", s(&input), "-o", s(&out_path), "--max-error", "abc%"],
+        vec!["decimate", s(&input), "-o", s(&out_path), "--view", "camera.json"],
+        vec!["decimate", "/nonexistent/mesh.ply", "-o", s(&out_path), "--ratio", "0.5"],
+    ];
+    for args in &cases {
+        let out = octowrap(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", text(&out.stderr));
+    }
+    let xyz = dir.path().join("x.xyz");
+    let out = octowrap(&["decimate", s(&input), "-o", s(&xyz), "--ratio", "0.5"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!xyz.exists());
+    let cloud = root().join("fixtures/points/kitten.xyz");
+    let out = octowrap(&["decimate", s(&cloud), "-o", s(&out_path), "--ratio", "0.5"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("no faces"));
+    assert!(!out_path.exists(), "nothing written when the command fails");
+}
+
+#[test]
+fn help_documents_targets_and_the_camera_schema() {
+    let out = octowrap(&["decimate", "--help"]);
+    assert!(out.status.success());
+    let help = text(&out.stdout);
+    for needle in [
+        "--target-faces",
+        "--ratio",
+        "--max-error",
+        "--view",
+        "fov_y_degrees",
+        "viewport_height_px",
+        "pixel_error",
+        "Examples:",
+    ] {
+        assert!(help.contains(needle), "{needle}");
+    }
+}
