@@ -90,8 +90,6 @@ struct Walk {
     tallies: VertexTallies,
     /// The current vertex's defects, pushed to `tallies.irregular` when it is done.
     current: EdgeTally,
-    /// Root of the current vertex's component.
-    root: usize,
     comp: Dsu,
     boundary_vertices: Option<(Dsu, Vec<bool>)>,
     /// Vertices where two corners have the same two neighbours: where duplicate faces can be.
@@ -108,7 +106,7 @@ impl Walk {
     fn edge(&mut self, v: u32, x: u32, fwd: usize, bwd: usize) {
         self.tallies.edges[v as usize] += 1;
         self.found.edge_count += 1;
-        self.root = self.comp.union_root(self.root, x as usize);
+        self.comp.union(v as usize, x as usize);
         if fwd == 1 && bwd == 1 {
             return;
         }
@@ -307,7 +305,6 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
     let mut walk = Walk {
         tallies: VertexTallies { edges: vec![0; n], irregular: Vec::new(), non_manifold: Vec::new() },
         current: EdgeTally::default(),
-        root: 0,
         comp: Dsu::new(n),
         boundary_vertices: None,
         duplicate_candidates: Vec::new(),
@@ -321,7 +318,6 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
         if r.is_empty() {
             continue;
         }
-        walk.root = walk.comp.find(v);
         let v = v as u32;
         if general_only || !regular_ring(v, r, &mut walk) {
             general_ring(v, r, &mut walk);
@@ -505,7 +501,7 @@ fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
     for &[_, x] in r {
         if x > v && (open_in == NONE || x != b_out) {
             interior += 1;
-            walk.root = walk.comp.union_root(walk.root, x as usize);
+            walk.comp.union(v as usize, x as usize);
         }
     }
     walk.tallies.edges[v as usize] += interior;
