@@ -20,9 +20,11 @@
 //! * With [`ExportOptions::quantize`], positions are `i16` on a grid spanning the exported levels'
 //!   bounding box, mapped back by each node's translation and uniform scale, and normals `i8`;
 //!   `KHR_mesh_quantization` is then used and required.
-//! * With [`ExportOptions::meshopt`], every buffer view is stored compressed (attribute codec
-//!   version 0, triangle index codec); the uncompressed layout is a fallback buffer with no data,
-//!   so `EXT_meshopt_compression` is used and required, as its specification says.
+//! * With [`ExportOptions::meshopt`], triangles are first reordered for the vertex cache and
+//!   vertices by first use (the same triangles and winding), then every buffer view is stored
+//!   compressed (attribute codec version 0, triangle index codec); the uncompressed layout is a
+//!   fallback buffer with no data, so `EXT_meshopt_compression` is used and required, as its
+//!   specification says.
 //!
 //! The output depends only on the input and the options: the same call gives the same bytes.
 //!
