@@ -136,6 +136,9 @@ pub(crate) fn classify(n: usize, tris: &[[u32; 3]], adj: &Csr, lock_border: bool
                     }
                     link.push((next, prev));
                 }
+                if link.len() <= 12 {
+                    return classify_small(link, lock_border);
+                }
                 link.sort_unstable();
                 prevs.extend(link.iter().map(|e| e.1));
                 prevs.sort_unstable();
@@ -169,33 +172,66 @@ pub(crate) fn classify(n: usize, tris: &[[u32; 3]], adj: &Csr, lock_border: bool
         .collect()
 }
 
+/// [`classify`] for a small link (`next -> prev` edges), by linear scans.
+fn classify_small(link: &[(u32, u32)], lock_border: bool) -> Kind {
+    let n = link.len();
+    let mut start = None;
+    for (i, e) in link.iter().enumerate() {
+        // Each link vertex starts and ends at most one link edge.
+        if link[i + 1..].iter().any(|f| f.0 == e.0 || f.1 == e.1) {
+            return Kind::Frozen;
+        }
+        if !link.iter().any(|f| f.1 == e.0) {
+            if start.is_some() {
+                return Kind::Frozen;
+            }
+            start = Some(e.0);
+        }
+    }
+    let first = start.unwrap_or(link[0].0);
+    let mut at = first;
+    let mut steps = 0;
+    while let Some(e) = link.iter().find(|e| e.0 == at) {
+        steps += 1;
+        at = e.1;
+        if steps > n || (start.is_none() && at == first) {
+            break;
+        }
+    }
+    match (steps == n, start.is_none()) {
+        (false, _) => Kind::Frozen,
+        (true, true) => Kind::Interior,
+        (true, false) if lock_border => Kind::Locked,
+        (true, false) => Kind::Border,
+    }
+}
+
 /// Weight of the boundary planes, relative to the squared edge length.
 const BOUNDARY_WEIGHT: f64 = 2.0;
 
 /// Area-weighted face-plane quadrics, plus the plane through each boundary edge perpendicular to
 /// its face.
 fn vertex_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, kind: &[Kind]) -> Vec<Quadric> {
-    let face: Vec<(Quadric, DVec3)> = tris
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| pos[i as usize]);
-            let n = (b - a).cross(c - a);
-            let len = n.length();
-            if len > 0.0 {
-                let u = n / len;
-                (Quadric::plane_through(a, u, len * 0.5), u)
-            } else {
-                (Quadric::default(), DVec3::ZERO)
-            }
-        })
-        .collect();
+    // Face planes are recomputed at each of their three corners: cheaper than reading them back
+    // from a per-face array that would not fit in cache.
+    let plane = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| pos[i as usize]);
+        let n = (b - a).cross(c - a);
+        let len = n.length();
+        if len > 0.0 {
+            let u = n / len;
+            (Quadric::plane_through(a, u, len * 0.5), u)
+        } else {
+            (Quadric::default(), DVec3::ZERO)
+        }
+    };
     (0..pos.len() as u32)
         .into_par_iter()
         .map(|v| {
             let mut q = Quadric::default();
             for &t in adj.of(v) {
-                let (fq, normal) = &face[t as usize];
-                q.add(fq);
+                let (fq, normal) = plane(&tris[t as usize]);
+                q.add(&fq);
                 // Only border (and frozen) vertices can lie on a boundary edge.
                 if kind[v as usize] == Kind::Interior {
                     continue;
@@ -205,7 +241,7 @@ fn vertex_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, kind: &[Kind]) -
                     let (x, y) = (tri[k], tri[(k + 1) % 3]);
                     if (x == v || y == v) && !has_half_edge(adj, tris, y, x) {
                         let e = pos[y as usize] - pos[x as usize];
-                        let m = e.cross(*normal).normalize_or_zero();
+                        let m = e.cross(normal).normalize_or_zero();
                         if m != DVec3::ZERO {
                             q.add(&Quadric::plane_through(pos[x as usize], m, BOUNDARY_WEIGHT * e.length_squared()));
                         }
