@@ -87,6 +87,11 @@ fn one_level_with_meshopt() {
     let doc = json_of(&out);
     assert_eq!(doc["meshes"].as_array().unwrap().len(), 1);
     assert_eq!(doc["nodes"][0]["name"], "level 1");
+    assert_eq!(doc["meshes"][0]["extras"]["octowrap"]["level"], 1);
+    assert_eq!(
+        doc["asset"]["extras"]["octowrap"]["levels"], "3",
+        "the file's level count, though only 0..=1 were read"
+    );
     assert!(doc["nodes"][0].get("extensions").is_none(), "one level: no MSFT_lod");
     assert_eq!(doc["extensionsRequired"], serde_json::json!(["EXT_meshopt_compression", "KHR_mesh_quantization"]));
     if let Some(r) = support::validate(&out) {

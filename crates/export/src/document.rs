@@ -190,7 +190,6 @@ fn level_mesh(h: &Hierarchy, k: usize, error: f64, primitive: json::mesh::Primit
     let mesh = &h.levels[k].mesh;
     let extras = json!({ "octowrap": {
         "level": k,
-        "level_count": h.levels.len(),
         "source_faces": mesh.faces.len(),
         "source_quads": mesh.faces.iter().filter(|f| f.len() == 4).count(),
         "source_vertices": mesh.vertex_count(),

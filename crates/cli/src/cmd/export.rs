@@ -109,6 +109,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             }
         }
         opts.metadata.extend(m.entries.iter().cloned());
+        opts.metadata.push(("levels".to_owned(), file.info.levels.len().to_string()));
         if let Levels::One(k) = opts.levels {
             if k < file.hierarchy.levels.len() {
                 opts.levels = Levels::Finest; // the decoded prefix ends at level k
