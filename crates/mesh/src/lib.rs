@@ -32,6 +32,7 @@
 mod cloud;
 mod faces;
 mod hierarchy;
+pub mod shapes;
 mod weld;
 
 pub use cloud::{PointCloud, Rgb};

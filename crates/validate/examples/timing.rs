@@ -4,10 +4,9 @@
 //! `cargo run --release -p octowrap-validate --example timing -- [NU NV | MESH-FILE]`: a closed
 //! triangulated torus of `2 * NU * NV` faces (default 1000 500), or any mesh the io crate reads.
 
-#![allow(clippy::print_stdout)] // A command-line tool: printing is its job.
+#![allow(clippy::print_stdout, clippy::print_stderr)] // A command-line tool: printing is its job.
 
-use octowrap_geom::DVec3;
-use octowrap_mesh::{FaceList, Mesh};
+use octowrap_mesh::Mesh;
 use octowrap_validate::{Options, validate_mesh};
 
 fn main() {
@@ -23,23 +22,7 @@ fn main() {
     }
     let args: Vec<u32> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
     let (nu, nv) = (args.first().copied().unwrap_or(1000), args.get(1).copied().unwrap_or(500));
-    let pos = (0..nu * nv)
-        .map(|k| {
-            let u = std::f64::consts::TAU * f64::from(k / nv) / f64::from(nu);
-            let w = std::f64::consts::TAU * f64::from(k % nv) / f64::from(nv);
-            DVec3::new((2.0 + 0.7 * w.cos()) * u.cos(), (2.0 + 0.7 * w.cos()) * u.sin(), 0.7 * w.sin())
-        })
-        .collect();
-    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
-    let mut tris = Vec::with_capacity((2 * nu * nv) as usize);
-    for i in 0..nu {
-        for j in 0..nv {
-            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let mut mesh = Mesh::from_positions(pos);
-    mesh.faces = FaceList::from_triangles(&tris);
+    let mesh = octowrap_mesh::shapes::torus(nu, nv, 2.0, 0.7);
     time(&mesh);
 }
 

@@ -834,26 +834,16 @@ mod tests {
         })
     }
 
-    /// A closed grid-like surface: a triangulated torus, with boundary cut in when `open`.
+    /// A triangulated torus, or a cylinder (open at both ends) when `open`.
     fn torus(nu: u32, nv: u32, open: bool) -> Mesh {
-        let pos = (0..nu * nv)
-            .map(|k| {
-                let (u, w) = (f64::from(k / nv) / f64::from(nu), f64::from(k % nv) / f64::from(nv));
-                let (u, w) = (u * std::f64::consts::TAU, w * std::f64::consts::TAU);
-                DVec3::new((2.0 + w.cos()) * u.cos(), (2.0 + w.cos()) * u.sin(), w.sin())
+        if open {
+            octowrap_mesh::shapes::triangulated_grid(nu, nv, [false, true], |u, v| {
+                let a = v * std::f64::consts::TAU;
+                DVec3::new(a.cos(), a.sin(), u)
             })
-            .collect();
-        let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
-        let mut tris = Vec::new();
-        for i in 0..nu - u32::from(open) {
-            for j in 0..nv {
-                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
+        } else {
+            octowrap_mesh::shapes::torus(nu, nv, 2.0, 0.7)
         }
-        let mut m = Mesh::from_positions(pos);
-        m.faces = FaceList::from_triangles(&tris);
-        m
     }
 
     fn all_paths_agree(m: &Mesh) {

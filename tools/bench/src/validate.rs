@@ -2,43 +2,17 @@
 
 use std::process::Command;
 
-use octowrap_geom::DVec3;
 use octowrap_io::{WriteOptions, write_path};
-use octowrap_mesh::{FaceList, Mesh};
+use octowrap_mesh::Mesh;
 use octowrap_validate::{Options, validate_mesh};
 
 use crate::util::best_of;
-
-/// A closed triangulated torus with `nu * nv * 2` faces.
-fn torus(nu: u32, nv: u32) -> Mesh {
-    let mut pos = Vec::with_capacity((nu * nv) as usize);
-    for i in 0..nu {
-        for j in 0..nv {
-            let (u, v) = (
-                std::f64::consts::TAU * f64::from(i) / f64::from(nu),
-                std::f64::consts::TAU * f64::from(j) / f64::from(nv),
-            );
-            pos.push(DVec3::new((2.0 + 0.7 * v.cos()) * u.cos(), (2.0 + 0.7 * v.cos()) * u.sin(), 0.7 * v.sin()));
-        }
-    }
-    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
-    let mut tris = Vec::with_capacity((nu * nv * 2) as usize);
-    for i in 0..nu {
-        for j in 0..nv {
-            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let mut m = Mesh::from_positions(pos);
-    m.faces = FaceList::from_triangles(&tris);
-    m
-}
 
 /// Prints the validator table.
 pub fn report() {
     println!("## Validator (issue 5)");
     println!();
-    let mesh = torus(1000, 500);
+    let mesh = octowrap_mesh::shapes::torus(1000, 500, 2.0, 0.7);
     let faces = mesh.faces.len();
     let (secs, report) = best_of(7, || validate_mesh(&mesh, &Options::default()));
     assert!(report.properties.watertight && report.properties.oriented, "the bench torus must be valid");
