@@ -261,6 +261,11 @@ struct Candidate {
     to: DVec3,
 }
 
+/// Sort key of a half-edge that makes no candidate.
+const NONE: u64 = u64::MAX;
+/// Sort key of a candidate over the error bound.
+const OVER: u64 = u64::MAX - 1;
+
 /// The result of [`run`].
 pub(crate) struct Outcome {
     /// The remaining triangles, over the input's vertex numbering.
@@ -302,8 +307,6 @@ pub(crate) fn run(
         // One entry per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
         // sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
         // whatever the thread count. Over-bound edges are marked with OVER.
-        const NONE: u64 = u64::MAX;
-        const OVER: u64 = u64::MAX - 1;
         let mut order: Vec<(u64, u32, u32)> = (0..tris.len() * 3)
             .into_par_iter()
             .map(|h| {
@@ -401,7 +404,7 @@ fn edge_candidate(
 ) -> Option<Candidate> {
     // A boundary edge joins two non-interior vertices: skip the search otherwise.
     let interior = kind[i as usize] == Kind::Interior || kind[j as usize] == Kind::Interior;
-    let boundary = !interior && !(has_half_edge(adj, tris, i, j) && has_half_edge(adj, tris, j, i));
+    let boundary = !interior && (!has_half_edge(adj, tris, i, j) || !has_half_edge(adj, tris, j, i));
     if half_edge && i > j && !boundary {
         return None;
     }

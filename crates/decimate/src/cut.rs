@@ -187,6 +187,7 @@ struct Info {
 /// finest order, keeping their attributes). Selected finest faces come out as they are; a selected
 /// coarse face comes out as a polygon of 4 or more corners. If the finest level is manifold (and
 /// closed), so is the cut; its boundary edges lie on the finest level's boundary.
+#[allow(clippy::too_many_lines)] // one pipeline: links, completeness, selection, stitching, output
 pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     let Some(finest) = h.levels.last() else { return Err(Error::EmptyHierarchy) };
     h.check_links()?;

@@ -94,18 +94,18 @@ pub struct Distance {
 pub fn distance(a: &Mesh, b: &Mesh, sampling: &Sampling) -> Distance {
     let (ta, tb) = (Triangles::new(a), Triangles::new(b));
     let (ba, bb) = (Bvh::new(&ta), Bvh::new(&tb));
-    let a_to_b = one_sided_tris(&ta, &bb, sampling);
-    let b_to_a = one_sided_tris(&tb, &ba, sampling);
+    let a_to_b = one_sided_tris(&ta, &bb, *sampling);
+    let b_to_a = one_sided_tris(&tb, &ba, *sampling);
     Distance { hausdorff: a_to_b.max.max(b_to_a.max), rms: a_to_b.rms.max(b_to_a.rms), a_to_b, b_to_a }
 }
 
 /// The one-sided sampled distance from `from` to `to`.
 pub fn one_sided(from: &Mesh, to: &Mesh, sampling: &Sampling) -> OneSided {
     let t = Triangles::new(to);
-    one_sided_tris(&Triangles::new(from), &Bvh::new(&t), sampling)
+    one_sided_tris(&Triangles::new(from), &Bvh::new(&t), *sampling)
 }
 
-fn one_sided_tris(from: &Triangles, to: &Bvh<'_>, sampling: &Sampling) -> OneSided {
+fn one_sided_tris(from: &Triangles, to: &Bvh<'_>, sampling: Sampling) -> OneSided {
     let samples = from.samples(sampling.samples);
     let d2: Vec<f64> = samples.par_iter().map(|s| to.nearest_squared(s.0)).collect();
     let (mut max2, mut sum2, mut sum1, mut wsum) = (0.0f64, 0.0, 0.0, 0.0);
@@ -316,6 +316,7 @@ impl<'a> Bvh<'a> {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)] // exact results are expected
 mod tests {
     use super::*;
 

@@ -78,7 +78,7 @@ impl Quadric {
         let [xx, xy, xz, yy, yz, zz] = self.a.map(|v| v * s);
         let m = DMat3::from_cols(DVec3::new(xx, xy, xz), DVec3::new(xy, yy, yz), DVec3::new(xz, yz, zz));
         let det = m.determinant();
-        if !(det.abs() > 1e-9) {
+        if det.is_nan() || det.abs() <= 1e-9 {
             return None;
         }
         let p = m.inverse() * -(DVec3::from(self.b) * s);
@@ -106,6 +106,7 @@ impl Quadric {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)] // exact results are expected
 mod tests {
     use super::*;
 

@@ -86,9 +86,9 @@ fn view_dependent_cuts_refine_towards_the_camera() {
         let c = p.iter().copied().sum::<octowrap_geom::DVec3>() / p.len() as f64;
         let size = p.iter().map(|q| q.distance(c)).fold(0.0, f64::max);
         if c.distance(eye) < 0.9 {
-            near.push(size)
+            near.push(size);
         } else if c.distance(eye) > 1.6 {
-            far.push(size)
+            far.push(size);
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
