@@ -524,7 +524,7 @@ fn finish(
         geometry_pass(&topo, pp.as_ref(), &mut q, |v, pr| {
             if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
                 let Some(line) = pr.line else {
-                    return Err(invalid(format!("vertex {v} is flagged as a line vertex but has no context")));
+                    return Err(invalid(format!("vertex {v} is flagged as a line vertex but has no line")));
                 };
                 let j = pr.param + unzigzag(params.as_ref().expect("lines").get(next_line));
                 next_line += 1;

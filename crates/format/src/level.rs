@@ -307,7 +307,7 @@ impl Line {
 pub struct Prediction {
     /// The point prediction (base plus local bias, or the neighbour predictor), clamped.
     pub point: [i64; 3],
-    /// In line mode, for vertices with a context: the vertex's prediction line.
+    /// In line mode: the vertex's prediction line.
     pub line: Option<Line>,
     /// The predicted line parameter (0 without a line).
     pub param: i64,
@@ -530,9 +530,30 @@ pub fn geometry_pass<E>(
         } else {
             [0; 3]
         };
-        q[v] = step(v, &Prediction { point: clamp(pred), line: None, param: 0 })?.0;
+        let base = clamp(pred);
+        let line =
+            topo.lines.then(|| Line::new(base, fan_normal(&nbr[range(v)], q, base, |u| ctx[u] != NONE || u < v)));
+        q[v] = step(v, &Prediction { point: base, line, param: 0 })?.0;
     }
     Ok(())
+}
+
+/// The normal of the fan of decoded neighbours around `base` (spec §6.6, pass B): the sum over the
+/// vertex's corners whose previous and next vertices `a`, `b` both count of
+/// `(Q_b - base) x (Q_a - base)`, exact in 128 bits, then rounded to binary64.
+fn fan_normal(near: &[u32], q: &[[i64; 3]], base: [i64; 3], counts: impl Fn(usize) -> bool) -> [f64; 3] {
+    let mut acc = [0i128; 3];
+    for pair in near.chunks_exact(2) {
+        let (a, b) = (pair[0] as usize, pair[1] as usize);
+        if counts(a) && counts(b) {
+            let da = map3([0, 1, 2], |k| i128::from(q[a][k] - base[k]));
+            let db = map3([0, 1, 2], |k| i128::from(q[b][k] - base[k]));
+            acc[0] += db[1] * da[2] - db[2] * da[1];
+            acc[1] += db[2] * da[0] - db[0] * da[2];
+            acc[2] += db[0] * da[1] - db[1] * da[0];
+        }
+    }
+    map3(acc, |x| x as f64)
 }
 
 /// `[f(a[0]), f(a[1]), f(a[2])]`: inlined where std's array `map` was not, in the hot loops.

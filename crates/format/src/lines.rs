@@ -28,7 +28,8 @@ pub struct LinePlacement {
     /// a grazing angle or too far away (more than [`LinePlacement::max_move_voxels`] of their
     /// level's voxel), or a move would change the grid of a file without an octree cube.
     pub kept: usize,
-    /// Vertices without a line (level 0, and vertices that only created faces use).
+    /// Vertices not slid onto a line: levels 0 and 1 (see
+    /// [`LinePlacement::first_placed_level`]), and vertices whose line is degenerate.
     pub without_line: usize,
     /// The largest move, world units.
     pub max_move: f64,
@@ -40,13 +41,15 @@ impl LinePlacement {
     /// The largest move allowed, in voxels of the vertex's level (edge of the octree cube over
     /// `2^k`, or of the bounding box's longest edge without a cube).
     pub const fn max_move_voxels() -> f64 {
-        0.75
+        1.5
+    }
+
+    /// The coarsest level whose vertices move onto their lines (level 1, a handful of vertices
+    /// around the whole object, only moves to its grid points: its tangent planes are too rough).
+    pub const fn first_placed_level() -> usize {
+        2
     }
 }
-
-/// One candidate lattice predictor's placement: cost (squared moves), the moves (input vertex,
-/// new position), vertices kept, vertices without a line.
-type Candidate = (f64, Vec<(u32, DVec3)>, usize, usize);
 
 /// The smallest cosine between a vertex's line and its tangent plane's normal for which the
 /// vertex slides to their intersection (60 degrees).
@@ -62,7 +65,7 @@ const MIN_COSINE: f64 = 0.5;
 /// new position is that grid point's world position, so the file holds it exactly. Lattice levels
 /// take the lattice predictor (§6.3) whose lines need the smaller moves. Vertices whose line
 /// meets the plane at a grazing angle or too far away stay where they are (the encoder codes them
-/// with three residuals). Every other vertex, level 0's included, moves to its grid point (at most
+/// with three residuals), and so do the vertices of level 1. Every other vertex, level 0's included, moves to its grid point (at most
 /// half a step per axis), so that the file holds the result exactly. Topology and order are
 /// unchanged.
 ///
@@ -95,51 +98,40 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
     let mut parent_face_new: Vec<u32> = Vec::new();
     for k in 0..h.levels.len() {
         let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
-        let Some(pl) = parent.as_ref() else {
+        let Some(pl) = parent.as_ref().filter(|_| k >= LinePlacement::first_placed_level()) else {
             stats.without_line += enc.vertex_old.len();
             snap(&mut h.levels[k].mesh.vertices.positions, &grid, guard.as_ref(), |_| true);
-            let enc = encode_one(h, k, &grid, &parent_face_new, None)?;
+            let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
             parent_face_new = enc.face_new;
             parent = Some(enc.level);
             continue;
         };
         let limit = LinePlacement::max_move_voxels() * extent / f64::from(1u32 << k.min(30));
         let normals = vertex_normals(&h.levels[k].mesh);
-        let positions = &h.levels[k].mesh.vertices.positions;
         let candidates: &[u8] =
             if enc.mode == Mode::Lattice { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
-        // Per candidate predictor: the moves (canonical vertex, new position), how many stay, and
-        // the cost (squared moves, a stay counting as a move of the limit).
         let mut best: Option<Candidate> = None;
         for &predictor in candidates {
-            let lines = prediction_lines(&enc, pl, k as u32, grid.bits, predictor);
-            let mut moves = Vec::new();
-            let (mut kept, mut none, mut cost) = (0usize, 0usize, 0.0);
-            for (v, line) in lines.iter().enumerate() {
-                let old = enc.vertex_old[v] as usize;
-                let Some(line) = line else {
-                    none += 1;
-                    continue;
-                };
-                if let Some(p) = slide(line, positions[old], normals[old], &grid, limit, guard.as_ref()) {
-                    cost += (p - positions[old]).length_squared();
-                    moves.push((enc.vertex_old[v], p));
-                } else {
-                    kept += 1;
-                    cost += limit * limit;
-                }
-            }
-            if best.as_ref().is_none_or(|b| cost < b.0) {
-                best = Some((cost, moves, kept, none));
+            let c = place_level(
+                &enc,
+                pl,
+                (k as u32, grid.bits, predictor),
+                &h.levels[k].mesh.vertices.positions,
+                &normals,
+                |line, x, n| slide(line, x, n, &grid, limit, guard.as_ref()),
+                limit,
+            );
+            if best.as_ref().is_none_or(|b| c.cost < b.cost) {
+                best = Some(c);
             }
         }
-        let (_, moves, kept, none) = best.expect("one candidate at least");
-        stats.kept += kept;
-        stats.without_line += none;
-        stats.placed += moves.len();
+        let best = best.expect("one candidate at least");
+        stats.kept += best.kept;
+        stats.without_line += best.none;
+        stats.placed += best.moves.len();
         let positions = &mut h.levels[k].mesh.vertices.positions;
         let mut moved = vec![false; positions.len()];
-        for (old, p) in moves {
+        for (old, p) in best.moves {
             let d = (p - positions[old as usize]).length();
             stats.max_move = stats.max_move.max(d);
             sum_sq += d * d;
@@ -169,8 +161,29 @@ fn encode_one(
     encode::encode_level(k as u32, &input, parent, grid.exact, grid.tied, grid.bits)
 }
 
-/// Every canonical vertex's prediction line under lattice predictor `predictor` (spec §6.6).
-fn prediction_lines(enc: &Encoded, parent: &PlainLevel, k: u32, bits: u32, predictor: u8) -> Vec<Option<Line>> {
+/// One lattice predictor's placement of a level: the moves (input vertex, new position), vertices
+/// kept, vertices without a line, and the cost (squared moves, a kept vertex counting as a move of
+/// the limit).
+struct Candidate {
+    moves: Vec<(u32, DVec3)>,
+    kept: usize,
+    none: usize,
+    cost: f64,
+}
+
+/// Places one level under lattice predictor `predictor`, in coding order (spec §6.2): every
+/// vertex's line comes from the decoded parent (pass A) or from the level's vertices placed before
+/// it (pass B), so the geometry pass itself drives the placement.
+#[allow(clippy::too_many_arguments)]
+fn place_level(
+    enc: &Encoded,
+    parent: &PlainLevel,
+    (k, bits, predictor): (u32, u32, u8),
+    positions: &[DVec3],
+    normals: &[DVec3],
+    mut slide: impl FnMut(&Line, DVec3, DVec3) -> Option<(DVec3, [i64; 3])>,
+    limit: f64,
+) -> Candidate {
     let level = &enc.level;
     let topo = Topo {
         mode: enc.mode,
@@ -186,19 +199,32 @@ fn prediction_lines(enc: &Encoded, parent: &PlainLevel, k: u32, bits: u32, predi
         predictor,
         lines: true,
     };
-    let mut out = vec![None; level.q.len()];
+    let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
     let mut q = vec![[0i64; 3]; level.q.len()];
     let pp = parent.as_parent();
     let _: Result<(), ()> = geometry_pass(&topo, Some(&pp), &mut q, |v, pr| {
-        out[v] = pr.line;
-        Ok((level.q[v], None))
+        let old = enc.vertex_old[v];
+        let x = positions[old as usize];
+        let Some(line) = pr.line else {
+            c.none += 1;
+            return Ok((level.q[v], None));
+        };
+        if let Some((p, g)) = slide(&line, x, normals[old as usize]) {
+            c.cost += (p - x).length_squared();
+            c.moves.push((old, p));
+            Ok((g, None))
+        } else {
+            c.kept += 1;
+            c.cost += limit * limit;
+            Ok((level.q[v], None))
+        }
     });
-    out
+    c
 }
 
 /// Where `x` lands when it slides along `line` to its tangent plane (normal `n`), snapped to the
 /// line's nearest grid point; `None` when it should stay.
-fn slide(line: &Line, x: DVec3, n: DVec3, grid: &Grid, limit: f64, guard: Option<&Aabb>) -> Option<DVec3> {
+fn slide(line: &Line, x: DVec3, n: DVec3, grid: &Grid, limit: f64, guard: Option<&Aabb>) -> Option<(DVec3, [i64; 3])> {
     if let Some(b) = guard {
         // A vertex on the bounding box holds the grid in place.
         if (0..3).any(|a| x[a] <= b.min[a] || x[a] >= b.max[a]) {
@@ -230,7 +256,7 @@ fn slide(line: &Line, x: DVec3, n: DVec3, grid: &Grid, limit: f64, guard: Option
             return None;
         }
     }
-    Some(p)
+    Some((p, q))
 }
 
 /// Moves each selected position to its grid point (at most half a step per axis), unless that

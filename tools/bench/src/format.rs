@@ -6,8 +6,12 @@
 //! script, and each whole hierarchy as an exact MRQ file.
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy, without_lattice};
-use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode_with_stats};
-use octowrap_mesh::Hierarchy;
+use octowrap_format::{
+    DecodeOptions, EncodeOptions, Quantization, decode, encode_with_stats, place_on_prediction_lines,
+};
+use octowrap_geom::{Aabb, DVec3};
+use octowrap_mesh::{Hierarchy, Mesh};
+use rayon::prelude::*;
 
 use crate::util::{best_of, shared_data};
 
@@ -19,7 +23,12 @@ fn row(name: &str, h: &Hierarchy) {
     let all_vertices: usize = file.hierarchy.levels.iter().map(|l| l.mesh.vertex_count()).sum();
     let topo: usize = stats.iter().map(|s| s.topology).sum();
     let geo: usize = stats.iter().map(|s| s.geometry).sum();
-    let modes: String = stats.iter().map(|s| char::from(b'0' + s.mode)).collect();
+    // Mode per level; `L` after it when the level codes line geometry (spec §6.6).
+    let modes: String = stats
+        .iter()
+        .map(|s| if s.predictor & 2 != 0 { format!("{}L", s.mode) } else { s.mode.to_string() })
+        .collect::<Vec<_>>()
+        .join(" ");
     println!(
         "| {name} | {} | {:.0} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {modes} |",
         h.levels.len() - 1,
@@ -34,7 +43,9 @@ fn row(name: &str, h: &Hierarchy) {
     // The decoded finest level, for the Draco comparison at the end of the section.
     let tmp = std::env::temp_dir().join("octowrap-bench-format");
     if std::fs::create_dir_all(&tmp).is_ok() && name.contains("recon") {
-        let path = tmp.join(format!("{}.ply", name.split(' ').next().unwrap_or("mesh")));
+        let model = name.split(' ').next().unwrap_or("mesh");
+        let path =
+            tmp.join(if name.contains("placed") { format!("{model}-placed.ply") } else { format!("{model}.ply") });
         let mesh = &file.hierarchy.levels.last().expect("levels").mesh;
         let _ = octowrap_io::write_path(&path, mesh, &octowrap_io::WriteOptions::default());
     }
@@ -52,7 +63,7 @@ fn row(name: &str, h: &Hierarchy) {
     }
 }
 
-fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<Hierarchy> {
+fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<(Vec<DVec3>, Hierarchy)> {
     let cloud = match octowrap_io::read_path(file, &octowrap_io::ReadOptions::default()) {
         Ok(m) => m.vertices.positions,
         Err(e) => {
@@ -63,7 +74,7 @@ fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<Hierarchy> {
     let mut opts = octowrap_recon::ReconOptions::default();
     opts.max_level = octowrap_recon::MaxLevel::Level(level);
     match octowrap_recon::reconstruct(&cloud, &opts) {
-        Ok(h) => Some(h),
+        Ok(h) => Some((cloud, h)),
         Err(e) => {
             eprintln!("{name}: reconstruction failed: {e}");
             None
@@ -87,14 +98,26 @@ pub fn report() {
     row("synthetic cube, lattice", &cube_hierarchy(8, Edits::default(), 1));
     row("synthetic cube, no lattice", &without_lattice(cube_hierarchy(8, Edits::default(), 1)));
     row("synthetic cube, pure subdivision", &cube_hierarchy(8, Edits::none(), 1));
+    let q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    let mut placed_synthetic = cube_hierarchy(8, Edits::default(), 1);
+    let _ = place_on_prediction_lines(&mut placed_synthetic, &q12).expect("places");
+    row("synthetic cube, lattice, placed on lines", &placed_synthetic);
+    let mut models = Vec::new();
     match shared_data() {
         Some(dir) => {
             for (name, rel, level) in [
                 ("bunny", "stanford-bunny/reconstruction/bun_zipper.ply", 6),
                 ("dragon", "stanford-dragon/dragon_vrip.ply.gz", 7),
             ] {
-                if let Some(h) = recon(name, &dir.join(rel), level) {
+                if let Some((cloud, h)) = recon(name, &dir.join(rel), level) {
                     row(&format!("{name} (recon)"), &h);
+                    let (secs, (placed, stats)) = best_of(1, || {
+                        let mut p = h.clone();
+                        let s = place_on_prediction_lines(&mut p, &q12).expect("places");
+                        (p, s)
+                    });
+                    row(&format!("{name} (recon, placed on lines)"), &placed);
+                    models.push((name, cloud, h, placed, stats, secs));
                 }
             }
         }
@@ -102,20 +125,60 @@ pub fn report() {
     }
     println!();
     draco();
+    for (name, cloud, h, placed, stats, secs) in &models {
+        line_accuracy(name, cloud, h, placed, stats, *secs);
+    }
+}
+
+/// Points→mesh RMS per level before and after line placement, as a fraction of the points'
+/// bounding-box diagonal (the reconstruction bench's measure).
+fn line_accuracy(
+    name: &str,
+    cloud: &[DVec3],
+    h: &Hierarchy,
+    placed: &Hierarchy,
+    stats: &octowrap_format::LinePlacement,
+    secs: f64,
+) {
+    let diag = Aabb::from_points(cloud).diagonal();
+    println!(
+        "Line placement on the {name} ({:.0} ms): {} vertices placed, {} kept where they were, {} without a line; \
+         largest move {:.5}, RMS move {:.5} of the diagonal.",
+        secs * 1e3,
+        stats.placed,
+        stats.kept,
+        stats.without_line,
+        stats.max_move / diag,
+        stats.rms_move / diag
+    );
+    println!();
+    println!("| {name} level | pts→mesh RMS, reconstructed | placed on lines | change |");
+    println!("|---|---|---|---|");
+    for (k, (a, b)) in h.levels.iter().zip(&placed.levels).enumerate().skip(1) {
+        let (ra, rb) = (points_to_mesh_rms(cloud, &a.mesh) / diag, points_to_mesh_rms(cloud, &b.mesh) / diag);
+        println!("| {k} | {ra:.5} | {rb:.5} | {:+.1} % |", (rb / ra - 1.0) * 100.0);
+    }
+    println!();
 }
 
 /// Draco at 12 bits on the same decoded finest levels (triangulated), through
 /// `tools/bench/draco_bits.py` and Python's DracoPy, when available.
 fn draco() {
     let tmp = std::env::temp_dir().join("octowrap-bench-format");
-    let meshes: Vec<_> = ["bunny.ply", "dragon.ply"].iter().map(|m| tmp.join(m)).filter(|p| p.is_file()).collect();
+    let meshes: Vec<_> = ["bunny.ply", "bunny-placed.ply", "dragon.ply", "dragon-placed.ply"]
+        .iter()
+        .map(|m| tmp.join(m))
+        .filter(|p| p.is_file())
+        .collect();
     if meshes.is_empty() {
         return;
     }
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("draco_bits.py");
     match std::process::Command::new("python3").arg(&script).args(&meshes).output() {
         Ok(out) if out.status.success() => {
-            println!("Draco (DracoPy, 12-bit, compression level 10) on the same finest levels alone:");
+            println!(
+                "Draco (DracoPy, 12-bit, compression level 10) on the same finest levels alone (as reconstructed, and placed on lines):"
+            );
             println!();
             for line in String::from_utf8_lossy(&out.stdout).lines() {
                 println!("    {line}");
@@ -124,4 +187,103 @@ fn draco() {
         _ => println!("Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy)."),
     }
     println!();
+}
+
+/// RMS distance from `points` to `mesh` (quads split along one diagonal). The same measure as the
+/// reconstruction bench (`recon.rs`, whose helpers are private to it): a uniform grid over the
+/// triangles' boxes, searched in growing rings of cells.
+fn points_to_mesh_rms(points: &[DVec3], mesh: &Mesh) -> f64 {
+    let pos = &mesh.vertices.positions;
+    let tris: Vec<[DVec3; 3]> = mesh
+        .faces
+        .iter()
+        .flat_map(|f| (1..f.len() - 1).map(move |i| [pos[f[0] as usize], pos[f[i] as usize], pos[f[i + 1] as usize]]))
+        .collect();
+    if tris.is_empty() || points.is_empty() {
+        return f64::NAN;
+    }
+    let boxes: Vec<(DVec3, DVec3)> =
+        tris.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
+    let bounds = Aabb::from_points(points).union(&Aabb::from_points(pos));
+    let mean_edge = boxes.iter().map(|b| (b.1 - b.0).max_element()).sum::<f64>() / boxes.len() as f64;
+    let cell = mean_edge.max(bounds.diagonal() / 512.0);
+    let dims = [0, 1, 2].map(|a| ((bounds.size()[a] / cell).ceil() as i64).max(1));
+    let cell_of = |p: DVec3| [0, 1, 2].map(|a| (((p[a] - bounds.min[a]) / cell).floor() as i64).clamp(0, dims[a] - 1));
+    let index = |c: [i64; 3]| (c[0] + dims[0] * (c[1] + dims[1] * c[2])) as usize;
+    let mut cells: Vec<Vec<u32>> = vec![Vec::new(); (dims[0] * dims[1] * dims[2]) as usize];
+    for (i, b) in boxes.iter().enumerate() {
+        let (lo, hi) = (cell_of(b.0), cell_of(b.1));
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    cells[index([x, y, z])].push(i as u32);
+                }
+            }
+        }
+    }
+    let d2: Vec<f64> = points
+        .par_iter()
+        .map(|&p| {
+            let c = cell_of(p);
+            let mut best = f64::INFINITY;
+            for r in 0..=dims.iter().copied().max().unwrap_or(1) {
+                for z in (c[2] - r).max(0)..=(c[2] + r).min(dims[2] - 1) {
+                    for y in (c[1] - r).max(0)..=(c[1] + r).min(dims[1] - 1) {
+                        for x in (c[0] - r).max(0)..=(c[0] + r).min(dims[0] - 1) {
+                            if (x - c[0]).abs() != r && (y - c[1]).abs() != r && (z - c[2]).abs() != r {
+                                continue;
+                            }
+                            for &t in &cells[index([x, y, z])] {
+                                let t = &tris[t as usize];
+                                best = best.min(point_triangle_dist2(p, t[0], t[1], t[2]));
+                            }
+                        }
+                    }
+                }
+                let reach = r as f64 * cell;
+                if best <= reach * reach {
+                    break;
+                }
+            }
+            best
+        })
+        .collect();
+    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+}
+
+/// Squared distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn point_triangle_dist2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (p - (a + ab * v)).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (p - (a + ac * w)).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length_squared();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (p - (a + ab * v + ac * w)).length_squared()
 }
