@@ -66,6 +66,9 @@ pub(crate) struct Cells {
     pub sub: Vec<u64>,
 }
 
+/// Most points per occupied neighbour, on average, around a gap that [`Cells::fill_gaps`] fills.
+pub(crate) const GAP_POINTS: usize = 8;
+
 /// [`Cells::sub`] of a voxel too big to pack its children's offsets in bytes.
 pub(crate) const NO_SUB: u64 = u64::MAX;
 
@@ -102,6 +105,103 @@ impl Cells {
         let mid = c.len() / 2;
         let (_, m, _) = c.select_nth_unstable(mid);
         f64::from(*m)
+    }
+
+    /// Fills one-voxel gaps in thinly sampled sheets: an empty voxel gets an empty (point-less)
+    /// entry when, across some axis, at least 3 of its 4 neighbours in the plane are occupied,
+    /// one of its two neighbours along the axis is empty (it lies on the surface, not inside),
+    /// and those occupied neighbours hold at most [`GAP_POINTS`] points on average (a gap in
+    /// sparse sampling, not a hole in densely sampled data). Returns the number filled.
+    ///
+    /// Without this, the oriented-sheet mask ([`crate::sheet`]) keeps such a gap open as it
+    /// keeps any hole in a sheet: the dragon's sparsely sampled underside showed dozens of
+    /// one- and two-quad holes at level 7. Filled voxels carry faces like any other; they have
+    /// no points, so their sheets are unreliable (every slot allowed) and their vertices are
+    /// mapped from the neighbours' points.
+    pub(crate) fn fill_gaps(&mut self) -> usize {
+        let level = self.level;
+        let n = 1i64 << level;
+        let count = |k: u64| self.find(k).map(|i| self.range(i).len());
+        let mut candidates: Vec<u64> = (0..self.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let key = self.keys[i];
+                (0..6u8).filter_map(move |d| crate::lattice::offset(key, crate::lattice::step(d), level))
+            })
+            .filter(|&w| !self.occupied(w))
+            .collect();
+        candidates.par_sort_unstable();
+        candidates.dedup();
+        let fill: Vec<u64> = candidates
+            .into_par_iter()
+            .filter(|&w| {
+                let c = morton::decode(w);
+                (0..3).any(|a| {
+                    let at = |delta: [i32; 3]| {
+                        let v: Vec<i64> = (0..3).map(|k| i64::from(c[k]) + i64::from(delta[k])).collect();
+                        if v.iter().any(|&x| x < 0 || x >= n) {
+                            return None;
+                        }
+                        count(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32))
+                    };
+                    let mut along = [0i32; 3];
+                    along[a] = 1;
+                    if at(along).is_some() && at(along.map(|x| -x)).is_some() {
+                        return false;
+                    }
+                    let (b, e) = ((a + 1) % 3, (a + 2) % 3);
+                    let (mut occupied, mut points) = (0usize, 0usize);
+                    for (axis, sign) in [(b, 1), (b, -1), (e, 1), (e, -1)] {
+                        let mut delta = [0i32; 3];
+                        delta[axis] = sign;
+                        if let Some(p) = at(delta) {
+                            occupied += 1;
+                            points += p;
+                        }
+                    }
+                    occupied >= 3 && points <= GAP_POINTS * occupied
+                })
+            })
+            .collect();
+        if fill.is_empty() {
+            return 0;
+        }
+        // Merge the empty voxels in (both lists are sorted).
+        let total = self.keys.len() + fill.len();
+        let (mut keys, mut starts) = (Vec::with_capacity(total), Vec::with_capacity(total + 1));
+        let mut moments = Vec::with_capacity(if self.moments.is_empty() { 0 } else { total });
+        let mut sub = Vec::with_capacity(if self.sub.is_empty() { 0 } else { total });
+        let (mut i, mut k) = (0, 0);
+        while i < self.keys.len() || k < fill.len() {
+            if k < fill.len() && (i == self.keys.len() || fill[k] < self.keys[i]) {
+                keys.push(fill[k]);
+                starts.push(self.starts[i]);
+                if !self.moments.is_empty() {
+                    moments.push(Moments::default());
+                }
+                if !self.sub.is_empty() {
+                    sub.push(0);
+                }
+                k += 1;
+            } else {
+                keys.push(self.keys[i]);
+                starts.push(self.starts[i]);
+                if !self.moments.is_empty() {
+                    moments.push(self.moments[i]);
+                }
+                if !self.sub.is_empty() {
+                    sub.push(self.sub[i]);
+                }
+                i += 1;
+            }
+        }
+        starts.push(*self.starts.last().unwrap_or(&0));
+        self.index = KeyMap::from_keys(&keys);
+        self.keys = keys;
+        self.starts = starts;
+        self.moments = moments;
+        self.sub = sub;
+        fill.len()
     }
 
     /// Edge length of this level's voxels in local units.
@@ -306,6 +406,51 @@ pub(crate) const BLOCK: [[i32; 3]; 27] = {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A sheet of voxel centres at level 4 with voxel (7, 7, 8) left out, `per` points per voxel.
+    fn sheet_with_gap(per: usize) -> Octree {
+        let mut pts = vec![DVec3::ZERO, DVec3::ONE];
+        for i in 0..16 {
+            for k in 0..16 {
+                if (i, k) == (7, 7) {
+                    continue;
+                }
+                for r in 0..per {
+                    let jitter = r as f64 * 0.002;
+                    pts.push(DVec3::new((f64::from(i) + 0.5) / 16.0 + jitter, (f64::from(k) + 0.5) / 16.0, 8.5 / 16.0));
+                }
+            }
+        }
+        let mut o = Octree::new(&pts, 0.0);
+        for _ in 0..4 {
+            o.push_level();
+        }
+        o.finish(4, 3);
+        o
+    }
+
+    #[test]
+    fn gaps_of_sparse_sheets_are_filled_and_dense_holes_kept() {
+        let mut o = sheet_with_gap(2);
+        let before = o.levels[4].len();
+        assert_eq!(o.levels[4].fill_gaps(), 1);
+        let cells = &o.levels[4];
+        assert_eq!(cells.len(), before + 1);
+        let gap = cells.find(morton::encode(7, 7, 8)).expect("the gap is filled");
+        assert!(cells.range(gap).is_empty());
+        assert!(cells.moments[gap].mean().is_none());
+        assert!(cells.keys.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(cells.starts.len(), cells.len() + 1);
+        assert_eq!(cells.sub.len(), cells.len());
+        for (i, &k) in cells.keys.iter().enumerate() {
+            assert_eq!(cells.find(k), Some(i));
+        }
+        // Filling again finds nothing new.
+        assert_eq!(o.levels[4].fill_gaps(), 0);
+        // Densely sampled, the same hole is data.
+        let mut o = sheet_with_gap(12);
+        assert_eq!(o.levels[4].fill_gaps(), 0);
+    }
 
     #[test]
     fn levels_partition_the_points() {
