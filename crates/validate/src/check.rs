@@ -177,6 +177,65 @@ macro_rules! faces_by_arity {
     }};
 }
 
+/// The checks whose findings are plain lists of faces or vertices, each ascending.
+pub(crate) struct ElementChecks {
+    /// Faces of fewer than 3 vertices.
+    pub(crate) short: Vec<u32>,
+    /// Faces with an index out of range.
+    pub(crate) range: Vec<u32>,
+    /// Faces repeating a vertex.
+    pub(crate) degenerate: Vec<u32>,
+    /// Usable faces of zero area.
+    pub(crate) zero_area: Vec<u32>,
+    pub(crate) non_finite: Vec<u32>,
+    pub(crate) unused: Vec<u32>,
+    pub(crate) duplicate_vertices: Vec<u32>,
+}
+
+impl ElementChecks {
+    /// Sets their counts and adds their findings.
+    pub(crate) fn report(self, n: usize, counts: &mut Counts, out: &mut Collector) {
+        let faces = |l: &[u32]| l.iter().map(|&f| Element::Face(f)).collect::<Vec<_>>();
+        let vertices = |l: &[u32]| l.iter().map(|&v| Element::Vertex(v)).collect::<Vec<_>>();
+        counts.short_faces = self.short.len();
+        counts.out_of_range_faces = self.range.len();
+        counts.degenerate_faces = self.degenerate.len();
+        counts.zero_area_faces = self.zero_area.len();
+        counts.non_finite_vertices = self.non_finite.len();
+        counts.unused_vertices = self.unused.len();
+        counts.duplicate_vertices = self.duplicate_vertices.len();
+        let lists = [
+            (Code::FaceSize, faces(&self.short), format!("faces with fewer than 3 vertices: {}", self.short.len())),
+            (
+                Code::IndexRange,
+                faces(&self.range),
+                format!("faces referring to vertices beyond the {n} that exist: {}", self.range.len()),
+            ),
+            (
+                Code::DegenerateFace,
+                faces(&self.degenerate),
+                format!("faces repeating a vertex: {}", self.degenerate.len()),
+            ),
+            (Code::ZeroAreaFace, faces(&self.zero_area), format!("faces of zero area: {}", self.zero_area.len())),
+            (
+                Code::NonFiniteVertex,
+                vertices(&self.non_finite),
+                format!("vertices with NaN or infinite coordinates: {}", self.non_finite.len()),
+            ),
+            (Code::UnusedVertex, vertices(&self.unused), format!("vertices used by no face: {}", self.unused.len())),
+            (
+                Code::DuplicateVertex,
+                vertices(&self.duplicate_vertices),
+                format!("vertices at the exact position of an earlier vertex: {}", self.duplicate_vertices.len()),
+            ),
+        ];
+        for (code, elements, message) in lists {
+            let count = elements.len();
+            out.add(code, elements, count, message);
+        }
+    }
+}
+
 /// Runs every check on `mesh` (already welded if asked).
 pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
     check_with(mesh, opts, welded_vertices, false)
@@ -220,59 +279,13 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
             }
         }
     });
-    counts.short_faces = short.len();
-    counts.out_of_range_faces = range.len();
-    counts.degenerate_faces = degen.len();
-    out.add(
-        Code::FaceSize,
-        short.iter().map(|&f| Element::Face(f)),
-        short.len(),
-        format!("faces with fewer than 3 vertices: {}", short.len()),
-    );
-    out.add(
-        Code::IndexRange,
-        range.iter().map(|&f| Element::Face(f)),
-        range.len(),
-        format!("faces referring to vertices beyond the {n} that exist: {}", range.len()),
-    );
-    out.add(
-        Code::DegenerateFace,
-        degen.iter().map(|&f| Element::Face(f)),
-        degen.len(),
-        format!("faces repeating a vertex: {}", degen.len()),
-    );
-
-    // Vertex checks.
     let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !p[v as usize].is_finite()).collect();
-    counts.non_finite_vertices = non_finite.len();
-    out.add(
-        Code::NonFiniteVertex,
-        non_finite.iter().map(|&v| Element::Vertex(v)),
-        non_finite.len(),
-        format!("vertices with NaN or infinite coordinates: {}", non_finite.len()),
-    );
     let unused: Vec<u32> = (0..n as u32).filter(|&v| ring_end[v as usize] == 0).collect();
-    counts.unused_vertices = unused.len();
-    out.add(
-        Code::UnusedVertex,
-        unused.iter().map(|&v| Element::Vertex(v)),
-        unused.len(),
-        format!("vertices used by no face: {}", unused.len()),
-    );
-    let dup_vertices = duplicate_vertices(p);
-    counts.duplicate_vertices = dup_vertices.len();
-    out.add(
-        Code::DuplicateVertex,
-        dup_vertices.iter().map(|&v| Element::Vertex(v)),
-        dup_vertices.len(),
-        format!("vertices at the exact position of an earlier vertex: {}", dup_vertices.len()),
-    );
-    counts.zero_area_faces = zero.len();
-    out.add(
-        Code::ZeroAreaFace,
-        zero.iter().map(|&f| Element::Face(f)),
-        zero.len(),
-        format!("faces of zero area: {}", zero.len()),
+    let duplicate_vertices = duplicate_vertices(p);
+    ElementChecks { short, range, degenerate: degen, zero_area: zero, non_finite, unused, duplicate_vertices }.report(
+        n,
+        &mut counts,
+        &mut out,
     );
 
     // The rings: a counting sort of the usable faces' corners by vertex. After the running sum

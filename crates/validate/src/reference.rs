@@ -9,7 +9,7 @@
 use octowrap_mesh::Mesh;
 
 use crate::check::{
-    Collector, EdgeTally, VertexTallies, components, duplicate_vertices, finish, has_repeat, zero_area,
+    Collector, EdgeTally, ElementChecks, VertexTallies, components, duplicate_vertices, finish, has_repeat, zero_area,
 };
 use crate::report::{Code, Counts, Element, MeshReport};
 use crate::{Options, dsu::Dsu};
@@ -55,37 +55,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             usable[f] = false;
         }
     }
-    counts.short_faces = short.len();
-    counts.out_of_range_faces = range.len();
-    counts.degenerate_faces = degen.len();
-    out.add(
-        Code::FaceSize,
-        short.iter().map(|&f| Element::Face(f)),
-        short.len(),
-        format!("faces with fewer than 3 vertices: {}", short.len()),
-    );
-    out.add(
-        Code::IndexRange,
-        range.iter().map(|&f| Element::Face(f)),
-        range.len(),
-        format!("faces referring to vertices beyond the {n} that exist: {}", range.len()),
-    );
-    out.add(
-        Code::DegenerateFace,
-        degen.iter().map(|&f| Element::Face(f)),
-        degen.len(),
-        format!("faces repeating a vertex: {}", degen.len()),
-    );
-
-    // Vertex checks.
     let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !mesh.vertices.positions[v as usize].is_finite()).collect();
-    counts.non_finite_vertices = non_finite.len();
-    out.add(
-        Code::NonFiniteVertex,
-        non_finite.iter().map(|&v| Element::Vertex(v)),
-        non_finite.len(),
-        format!("vertices with NaN or infinite coordinates: {}", non_finite.len()),
-    );
     let mut used = vec![false; n];
     for (f, face) in faces.iter().enumerate() {
         if usable[f] {
@@ -95,33 +65,15 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         }
     }
     let unused: Vec<u32> = (0..n as u32).filter(|&v| !used[v as usize]).collect();
-    counts.unused_vertices = unused.len();
-    out.add(
-        Code::UnusedVertex,
-        unused.iter().map(|&v| Element::Vertex(v)),
-        unused.len(),
-        format!("vertices used by no face: {}", unused.len()),
-    );
-    let dup_vertices = duplicate_vertices(&mesh.vertices.positions);
-    counts.duplicate_vertices = dup_vertices.len();
-    out.add(
-        Code::DuplicateVertex,
-        dup_vertices.iter().map(|&v| Element::Vertex(v)),
-        dup_vertices.len(),
-        format!("vertices at the exact position of an earlier vertex: {}", dup_vertices.len()),
-    );
-
-    // Zero-area and duplicate faces.
-    let zero: Vec<u32> = (0..faces.len())
+    let duplicate_vertices = duplicate_vertices(&mesh.vertices.positions);
+    let zero_area: Vec<u32> = (0..faces.len())
         .filter(|&f| usable[f] && zero_area(&mesh.vertices.positions, faces.face(f)))
         .map(|f| f as u32)
         .collect();
-    counts.zero_area_faces = zero.len();
-    out.add(
-        Code::ZeroAreaFace,
-        zero.iter().map(|&f| Element::Face(f)),
-        zero.len(),
-        format!("faces of zero area: {}", zero.len()),
+    ElementChecks { short, range, degenerate: degen, zero_area, non_finite, unused, duplicate_vertices }.report(
+        n,
+        &mut counts,
+        &mut out,
     );
     // Half-edges bucketed by their smaller vertex.
     let mut bucket_len = vec![0u32; n + 1];
