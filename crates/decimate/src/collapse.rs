@@ -563,6 +563,21 @@ mod tests {
         let adj = Csr::build(5, &bow);
         assert_eq!(classify(5, &bow, &adj, false)[0], Kind::Frozen);
         // A flipped neighbour: edge 0-1 used twice in the same direction.
+        // Valence 20 (the sorted path): a closed fan is interior, an open one border, two closed
+        // fans sharing the centre frozen.
+        let fan = |first: u32, n: u32, closed: bool| -> Vec<[u32; 3]> {
+            (0..n).filter(|&i| closed || i + 1 < n).map(|i| [0, first + i, first + (i + 1) % n]).collect()
+        };
+        let closed = fan(1, 20, true);
+        let adj = Csr::build(41, &closed);
+        assert_eq!(classify(41, &closed, &adj, false)[0], Kind::Interior);
+        let open = fan(1, 20, false);
+        let adj = Csr::build(41, &open);
+        assert_eq!(classify(41, &open, &adj, false)[0], Kind::Border);
+        let mut two = fan(1, 20, true);
+        two.extend(fan(21, 20, true));
+        let adj = Csr::build(41, &two);
+        assert_eq!(classify(41, &two, &adj, false)[0], Kind::Frozen);
         let flip = [[0, 1, 2], [0, 1, 3]];
         let adj = Csr::build(4, &flip);
         assert_eq!(classify(4, &flip, &adj, false)[0], Kind::Frozen);

@@ -1,7 +1,8 @@
 //! The entry point for general decimation: [`decimate`].
 
-use octowrap_geom::{Aabb, DVec3};
+use octowrap_geom::{Aabb, DVec3, morton};
 use octowrap_mesh::{FaceList, Mesh, PointCloud};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::collapse::{self, Stop};
@@ -165,7 +166,7 @@ pub fn decimate_with_progress(
         pos.iter().map(|&p| if p.is_finite() { (p - centre) / scale } else { DVec3::ZERO }).collect();
     let target_tris = opts.target_faces.map_or(0, |t| if repair { t.saturating_mul(2) } else { t });
     let max_cost = (max_error / scale).powi(2);
-    let out = collapse::run(unit, tris, opts.lock_border, target_tris, max_cost, progress);
+    let out = collapse_coherent(&unit, &tris, opts.lock_border, target_tris, max_cost, progress);
     let faces = if repair { quads::pair(&out.pos, &out.tris) } else { FaceList::from_triangles(&out.tris) };
     // Renumber the surviving vertices in input order.
     let mut map = vec![u32::MAX; pos.len()];
@@ -206,4 +207,34 @@ pub fn decimate_with_progress(
         quads: repair,
     };
     Ok(Decimated { mesh: Mesh { vertices, faces: renumbered }, report })
+}
+
+/// [`collapse::run`] on a spatially coherent numbering (Morton order of the positions, ties by
+/// index; triangles by their lowest vertex): the collapse loops read neighbours' data, which then
+/// sit nearby in memory. The result is mapped back to the input numbering.
+fn collapse_coherent(
+    unit: &[DVec3],
+    tris: &[[u32; 3]],
+    lock_border: bool,
+    target: usize,
+    max_cost: f64,
+    progress: &mut dyn FnMut(usize),
+) -> collapse::Outcome {
+    let cell = |x: f64| ((x + 0.5) * f64::from(1u32 << 20)).clamp(0.0, f64::from((1u32 << 21) - 1)) as u32;
+    let codes: Vec<u64> = unit.par_iter().map(|p| morton::encode(cell(p.x), cell(p.y), cell(p.z))).collect();
+    let mut perm: Vec<u32> = (0..unit.len() as u32).collect();
+    perm.par_sort_unstable_by_key(|&v| (codes[v as usize], v));
+    let mut inv = vec![0u32; perm.len()];
+    for (new, &old) in perm.iter().enumerate() {
+        inv[old as usize] = new as u32;
+    }
+    let local: Vec<DVec3> = perm.iter().map(|&o| unit[o as usize]).collect();
+    let mut local_tris: Vec<[u32; 3]> = tris.iter().map(|t| t.map(|v| inv[v as usize])).collect();
+    local_tris.par_sort_unstable_by_key(|t| (t[0].min(t[1]).min(t[2]), *t));
+    let mut out = collapse::run(local, local_tris, lock_border, target, max_cost, progress);
+    for t in &mut out.tris {
+        *t = t.map(|v| perm[v as usize]);
+    }
+    out.pos = inv.iter().map(|&n| out.pos[n as usize]).collect();
+    out
 }
