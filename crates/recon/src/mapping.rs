@@ -140,7 +140,7 @@ pub(crate) fn map_wrapped(
         if m.count < 3.0 {
             // W' within radius l: the ball lies in the 2x2x2 voxels around the corner.
             m = Moments::default();
-            gather_ball(tree, cells, x, l, &mut m);
+            gather_ball(tree, cells, x, l, &mut m, &mut BallCache::default());
         }
         if m.count < 3.0 {
             // All points of W': the voxels adjacent to W, by their moments.
@@ -256,6 +256,22 @@ fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// The voxels [`gather_ball`] looked up around its last corner: consecutive vertices (numbered
+/// along the Morton curve) often share the corner, and the look-ups are cache misses.
+#[derive(Clone, Copy, Debug, Default)]
+struct BallCache {
+    /// Level and corner of the entries.
+    corner: Option<(u32, [i64; 3])>,
+    /// Per voxel around the corner (in [`gather_ball`]'s order): its index, [`ABSENT`] or
+    /// [`UNKNOWN`].
+    found: [u32; 8],
+}
+
+/// [`BallCache`]: not looked up yet.
+const UNKNOWN: u32 = u32::MAX;
+/// [`BallCache`]: not occupied.
+const ABSENT: u32 = u32::MAX - 1;
+
 /// Fewest points in a voxel for [`gather_ball`] to test its children's reach first (below, the
 /// eight tests cost more than the points they skip).
 const CHILD_MIN: usize = 24;
@@ -265,7 +281,7 @@ const PAD: f64 = 1.0 / (1u64 << 20) as f64;
 
 /// Sums the points within `radius` of `x` from the 2x2x2 voxels of `cells` around the lattice
 /// corner nearest to `x`; complete when `radius` is at most half a voxel.
-fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Moments) {
+fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Moments, cache: &mut BallCache) {
     let h = cells.voxel();
     let n = 1i64 << cells.level;
     let c = (x / h).round();
@@ -286,13 +302,21 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
             t2[a][k] = t * t;
         }
     }
+    let corner = [c.x as i64, c.y as i64, c.z as i64];
+    if cache.corner != Some((cells.level, corner)) {
+        *cache = BallCache { corner: Some((cells.level, corner)), found: [UNKNOWN; 8] };
+    }
     for o in 0..8usize {
         let k = [o & 1, (o >> 1) & 1, o >> 2];
         let v = [coord[0][k[0]], coord[1][k[1]], coord[2][k[2]]];
         if v.iter().any(|&a| a < 0 || a >= n) || t2[0][k[0]] + t2[1][k[1]] + t2[2][k[2]] >= r2 {
             continue;
         }
-        if let Some(i) = cells.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
+        if cache.found[o] == UNKNOWN {
+            let code = morton::encode(v[0] as u32, v[1] as u32, v[2] as u32);
+            cache.found[o] = cells.find(code).map_or(ABSENT, |i| i as u32);
+        }
+        if let Some(i) = (cache.found[o] != ABSENT).then_some(cache.found[o] as usize) {
             match cells.sub.get(i) {
                 Some(&sub) if sub != NO_SUB && cells.range(i).len() >= CHILD_MIN => {
                     gather_children(tree, cells, i, sub, v, x, r2, m);
@@ -343,22 +367,27 @@ fn gather_children(tree: &Octree, cells: &Cells, i: usize, sub: u64, v: [i64; 3]
 /// radii are).
 pub(crate) fn map_free(tree: &Octree, level: u32, positions: &mut [DVec3]) -> Vec<Option<TangentPlane>> {
     let l = crate::octree::voxel_size(level);
-    positions
-        .par_iter_mut()
-        .map(|out| {
+    // In chunks of consecutive vertices, each with its look-up caches (one per level queried);
+    // the caches only save look-ups, so the result does not depend on the chunking.
+    let mut planes = vec![None; positions.len()];
+    positions.par_chunks_mut(1024).zip(planes.par_chunks_mut(1024)).for_each(|(positions, planes)| {
+        let mut caches = [BallCache::default(); 2];
+        for (out, plane) in positions.iter_mut().zip(planes) {
             let x = *out;
             let mut m = Moments::default();
             for up in 1..=2u32 {
                 let Some(q) = level.checked_sub(up) else { break };
                 m = Moments::default();
-                gather_ball(tree, &tree.levels[q as usize], x, f64::from(1u32 << (up - 1)) * l, &mut m);
+                let radius = f64::from(1u32 << (up - 1)) * l;
+                gather_ball(tree, &tree.levels[q as usize], x, radius, &mut m, &mut caches[up as usize - 1]);
                 if m.count >= 3.0 {
                     break;
                 }
             }
-            let (p, plane) = fit(&m, x);
+            let (p, fitted) = fit(&m, x);
             *out = p;
-            plane
-        })
-        .collect()
+            *plane = fitted;
+        }
+    });
+    planes
 }

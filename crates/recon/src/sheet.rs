@@ -31,6 +31,10 @@
 //! Tested on a sphere, a torus, a bowl, a disc with a hole, two parallel sheets, a thin closed
 //! plate and a plate with a one-voxel pillar (`tests/promises.rs`).
 //!
+//! A hole of one or two voxels in a thinly sampled sheet is a sampling gap, not a hole in the
+//! surface; such gaps are filled with point-less voxels before the mask is built
+//! ([`crate::octree::Cells::fill_gaps`]), so the mask only ever sees holes the data supports.
+//!
 //! Known limits: a closed part thinner than a tenth of a voxel whose two sides fall in two voxel
 //! layers is read as one sheet and kept one-sided at that level; at level 1 the foot of a thin
 //! protrusion and the plate it stands on can share a voxel and leave a small hole there.
