@@ -248,7 +248,7 @@ impl Octree {
                 (morton::encode(q(u.x), q(u.y), q(u.z)), i as u32)
             })
             .collect();
-        sort_codes(&mut pairs);
+        sort_codes(&mut pairs, 3 * CODE_BITS);
         let distinct = 1 + pairs.windows(2).filter(|w| w[0].0 != w[1].0).count();
         let local: Vec<Vec3> = pairs
             .par_iter()
@@ -358,13 +358,14 @@ impl Octree {
     }
 }
 
-/// Sorts `(code, index)` pairs: a counting pass by the top 12 bits of the code (the level-4
-/// voxel), then the buckets in parallel. `par_sort_unstable` partitions its top levels on one
+/// Sorts `(code, index)` pairs whose codes have at most `key_bits` bits: a counting pass by the
+/// top 12 bits (for the full-depth codes of the points, the level-4 voxel), then the buckets in
+/// parallel. `par_sort_unstable` partitions its top levels on one
 /// thread; this spends one sequential pass and sorts the rest fully in parallel, into the same
 /// order (the pairs are distinct).
-fn sort_codes(pairs: &mut Vec<(u64, u32)>) {
+pub(crate) fn sort_codes(pairs: &mut Vec<(u64, u32)>, key_bits: u32) {
     const BITS: u32 = 12;
-    let shift = 3 * CODE_BITS - BITS;
+    let shift = key_bits.saturating_sub(BITS);
     let mut first = vec![0usize; (1 << BITS) + 1];
     for p in pairs.iter() {
         first[(p.0 >> shift) as usize + 1] += 1;

@@ -131,7 +131,9 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
     // which visits them in order, queries nearby voxels one after the other.
     let mut order: Vec<(u64, u32)> =
         out_corners.par_iter().enumerate().map(|(i, c)| (morton::encode(c[0], c[1], c[2]), i as u32)).collect();
-    order.par_sort_unstable();
+    // Corners of this level have up to `level + 1` bits per axis.
+    let bits = out_corners.iter().flatten().fold(0u32, |a, &b| a | b);
+    crate::octree::sort_codes(&mut order, 3 * (32 - bits.leading_zeros()));
     let mut rank = vec![0u32; order.len()];
     for (new, &(_, old)) in order.iter().enumerate() {
         rank[old as usize] = new as u32;
