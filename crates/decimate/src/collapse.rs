@@ -304,41 +304,45 @@ pub(crate) fn run(
         }
         passes += 1;
         let pass = passes as u32;
-        // One entry per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
-        // sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
-        // whatever the thread count. Over-bound edges are marked with OVER.
-        let mut order: Vec<(u64, u32, u32)> = (0..tris.len() * 3)
-            .into_par_iter()
-            .map(|h| {
-                let tri = tris[h / 3];
-                let (i, j) = (tri[h % 3], tri[(h + 1) % 3]);
-                match edge_candidate(&pos, &quadrics, &kind, &adj, &tris, i, j, true) {
-                    Some(c) if c.cost <= max_cost => (c.cost.to_bits(), c.keep, c.remove),
-                    Some(_) => (OVER, 0, 0),
-                    None => (NONE, 0, 0),
-                }
-            })
-            .collect();
+        let mut order = edge_keys(&pos, &quadrics, &kind, &adj, &tris, max_cost);
         let over_bound = order.par_iter().any(|e| e.0 == OVER);
         order.retain(|e| e.0 < OVER);
-        order.par_sort_unstable();
+        // The pass stops at 1.5 times the error of the candidate that would reach the target (its
+        // rank found by selection), so only the candidates below that are sorted, the rest only
+        // when nothing below was valid.
         let goal = (tris.len() - target).div_ceil(2);
-        let mut limit = order.get(goal).map_or(f64::INFINITY, |o| f64::from_bits(o.0) * 1.5).min(max_cost);
+        let mut limit =
+            if goal < order.len() { f64::from_bits(order.select_nth_unstable(goal).1.0) * 1.5 } else { f64::INFINITY }
+                .min(max_cost);
+        let mut rest: Vec<(u64, u32, u32)> = Vec::new();
+        order.retain(|e| {
+            let keep = f64::from_bits(e.0) <= limit;
+            if !keep {
+                rest.push(*e);
+            }
+            keep
+        });
+        order.par_sort_unstable();
         let mut live = tris.len();
         let mut dead = vec![false; tris.len()];
         let mut applied = 0;
-        for &(bits, a, b) in &order {
-            let cost = f64::from_bits(bits);
-            if live <= target {
-                break;
-            }
-            if cost > limit {
+        let mut at = 0;
+        loop {
+            if at == order.len() {
                 // Nothing cheap was valid: take the dearer candidates rather than stop.
-                if applied == 0 && limit < max_cost {
-                    limit = max_cost;
-                } else {
+                if applied > 0 || rest.is_empty() {
                     break;
                 }
+                rest.par_sort_unstable();
+                order = std::mem::take(&mut rest);
+                at = 0;
+                limit = max_cost;
+            }
+            let (bits, a, b) = order[at];
+            at += 1;
+            let cost = f64::from_bits(bits);
+            if live <= target || cost > limit {
+                break;
             }
             if touched[a as usize] == pass || touched[b as usize] == pass {
                 continue;
@@ -387,6 +391,32 @@ pub(crate) fn run(
         adj = Csr::build(n, &tris);
     };
     Outcome { tris, pos, max_cost: reached, collapses, passes, frozen, stop }
+}
+
+/// One sort key per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
+/// sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
+/// whatever the thread count. Half-edges that make no candidate get [`NONE`], over-bound edges
+/// [`OVER`].
+fn edge_keys(
+    pos: &[DVec3],
+    quadrics: &[Quadric],
+    kind: &[Kind],
+    adj: &Csr,
+    tris: &[[u32; 3]],
+    max_cost: f64,
+) -> Vec<(u64, u32, u32)> {
+    (0..tris.len() * 3)
+        .into_par_iter()
+        .map(|h| {
+            let tri = tris[h / 3];
+            let (i, j) = (tri[h % 3], tri[(h + 1) % 3]);
+            match edge_candidate(pos, quadrics, kind, adj, tris, i, j, true) {
+                Some(c) if c.cost <= max_cost => (c.cost.to_bits(), c.keep, c.remove),
+                Some(_) => (OVER, 0, 0),
+                None => (NONE, 0, 0),
+            }
+        })
+        .collect()
 }
 
 /// The candidate of edge `i-j`. With `half_edge`, `i -> j` is a half-edge of the mesh and the
