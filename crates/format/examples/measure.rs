@@ -28,9 +28,10 @@ fn main() {
         for (k, (s, l)) in stats.iter().zip(&h.levels).enumerate() {
             let v = l.mesh.vertex_count().max(1) as f64;
             println!(
-                "  level {k}: mode {} pred {} {:>7} vertices {:>7} faces  topo {:>6} B ({:.2} b/v)  geo {:>7} B ({:.2} b/v)",
+                "  level {k}: mode {} pred {} shift {} {:>7} vertices {:>7} faces  topo {:>6} B ({:.2} b/v)  geo {:>7} B ({:.2} b/v)",
                 s.mode,
                 s.predictor,
+                s.line_shift,
                 l.mesh.vertex_count(),
                 l.mesh.faces.len(),
                 s.topology,

@@ -6,7 +6,7 @@ use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, LINE_PARAM_LIMIT, Mode, NO_PARENT, NO_POS, NONE,
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, NONE,
     PREDICTOR_LINES, Parent, STREAM_COUNT, STREAM_NAMES, Topo, geometry_pass, number_edges, rotated, s,
 };
 
@@ -98,8 +98,9 @@ pub fn decode_level(
     if lines && (mode == Mode::Base || grid.exact || grid.version < 2) {
         return Err(bad(2, "line geometry needs a refinement level of a grid file of version 2 or later".into()));
     }
-    if head.u8()? != 0 {
-        return Err(bad(3, "reserved byte is not zero".into()));
+    let line_shift = u32::from(head.u8()?);
+    if line_shift > if lines { MAX_LINE_SHIFT } else { 0 } {
+        return Err(bad(3, format!("line_shift {line_shift} (0 without LINES, at most {MAX_LINE_SHIFT})")));
     }
     let (nv, nf, nc) = (head.u32()?, head.u32()?, head.u32()?);
     if (nv, nf, nc) != (entry.vertex_count, entry.face_count, entry.corner_count) {
@@ -434,16 +435,27 @@ pub fn decode_level(
         // go first, so that the geometry pass can reuse their memory (fewer fresh pages).
         drop((pred, name_of, names, count, first));
         out.parents.shrink_to_fit();
-        return finish(k, (mode, predictor, lines), has_lattice, grid, &mut st, out, Some(p), &pos, &parent_quads, nv);
+        return finish(
+            k,
+            (mode, predictor, lines, line_shift),
+            has_lattice,
+            grid,
+            &mut st,
+            out,
+            Some(p),
+            &pos,
+            &parent_quads,
+            nv,
+        );
     }
     let pos = vec![NO_POS; nc];
-    finish(k, (mode, predictor, lines), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
+    finish(k, (mode, predictor, lines, line_shift), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
 }
 
 #[allow(clippy::too_many_arguments)]
 fn finish(
     k: u32,
-    (mode, predictor, lines): (Mode, u8, bool),
+    (mode, predictor, lines, line_shift): (Mode, u8, bool, u32),
     has_lattice: bool,
     grid: GridInfo,
     st: &mut [Reader<'_>],
@@ -516,6 +528,7 @@ fn finish(
             parent_quads: (mode == Mode::Lattice).then_some(parent_quads),
             predictor,
             lines,
+            line_shift,
         };
         let geo_off = g.offset();
         let invalid =

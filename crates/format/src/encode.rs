@@ -7,8 +7,8 @@ use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent, STREAM_COUNT, Topo, best_rotation,
-    geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent, STREAM_COUNT, Topo,
+    best_rotation, geometry_pass, number_edges, rotated, s,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
@@ -48,6 +48,8 @@ pub struct Encoded {
     pub mode: Mode,
     /// The block's `predictor` byte (lattice predictor, line bit).
     pub predictor: u8,
+    /// The block's `line_shift` (spec §6.6).
+    pub line_shift: u32,
     /// Per corner: canonical position for geometry contexts (`NO_POS` for none).
     pub pos: Vec<u8>,
     /// Lattice mode: the parent's canonical quads.
@@ -117,8 +119,9 @@ pub fn encode_level(
         level.q.clone_from(&input.q);
         level.exact.clone_from(&input.exact);
         let pos = vec![NO_POS; input.indices.len()];
-        st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], 0);
-        let mut e = finish(st, (Mode::Base, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect());
+        st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], (0, 0)).0;
+        let mut e =
+            finish(st, (Mode::Base, 0, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect());
         e.pos = pos;
         return Ok(e);
     };
@@ -381,25 +384,36 @@ pub fn encode_level(
         if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
     let quads = if mode == Mode::Lattice { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
-    st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, 0);
+    let mut line_shift = 0u32;
+    st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (0, 0)).0;
     if !exact {
-        // Keep whichever predictor (spec §6.3) and layout (§6.6) compresses best.
+        // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
         let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
         let mut best = size(&st.0[s::GEOMETRY]);
-        let lattice_predictors: &[u8] = if mode == Mode::Lattice { &[1] } else { &[] };
-        let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
-        let variants = lattice_predictors.iter().copied().chain(line_predictors.iter().map(|&p| p | PREDICTOR_LINES));
-        for variant in variants {
-            let other = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, variant);
-            let n = size(&other);
+        let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
+            let n = size(&bytes);
             if n < best {
                 best = n;
-                st.0[s::GEOMETRY] = other;
-                predictor = variant;
+                st.0[s::GEOMETRY] = bytes;
+                (predictor, line_shift) = variant;
+            }
+        };
+        if mode == Mode::Lattice {
+            consider(geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (1, 0)).0, (1, 0), &mut st);
+        }
+        let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
+        for &p in line_predictors {
+            let variant = p | PREDICTOR_LINES;
+            let (bytes, js) = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, 0));
+            consider(bytes, (variant, 0), &mut st);
+            let shift = common_shift(&js);
+            if shift > 0 {
+                let bytes = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, shift)).0;
+                consider(bytes, (variant, shift), &mut st);
             }
         }
     }
-    let mut e = finish(st, (mode, predictor), has_lattice, level, face_new, vorder);
+    let mut e = finish(st, (mode, predictor, line_shift), has_lattice, level, face_new, vorder);
     e.pos = pos;
     e.parent_quads = quads;
     Ok(e)
@@ -432,15 +446,15 @@ fn geometry(
     parent: Option<&PlainLevel>,
     pos: &[u8],
     quads: &[([u32; 4], u8)],
-    predictor: u8,
-) -> Vec<u8> {
+    (predictor, line_shift): (u8, u32),
+) -> (Vec<u8>, Vec<i64>) {
     let mut g = Vec::new();
     if exact {
         for a in 0..3 {
             let vals: Vec<u64> = level.exact.iter().map(|p| p[a].to_bits()).collect();
             put_planes(&mut g, &vals);
         }
-        return g;
+        return (g, Vec::new());
     }
     let nv = level.q.len();
     let lines = predictor & PREDICTOR_LINES != 0;
@@ -459,11 +473,13 @@ fn geometry(
         parent_quads: (mode == Mode::Lattice).then_some(quads),
         predictor: predictor & !PREDICTOR_LINES,
         lines,
+        line_shift,
     };
     // Without lines: residuals by vertex index. With lines (§6.6): line flags, then parameters
     // and the other vertices' residuals in coding order.
     let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
     let mut params = Vec::new();
+    let mut js = Vec::new();
     let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
     let mut q = vec![[0i64; 3]; nv];
     let mut order = Vec::with_capacity(if lines { 0 } else { nv });
@@ -472,6 +488,7 @@ fn geometry(
         if let Some(j) = pr.line.and_then(|l| l.param(t)) {
             flags[v / 8] |= 1 << (v % 8);
             params.push(zigzag(j - pr.param));
+            js.push(j);
             return Ok((t, Some(j)));
         }
         for a in 0..3 {
@@ -496,12 +513,31 @@ fn geometry(
     for r in &res {
         put_planes(&mut g, r);
     }
-    g
+    (g, js)
+}
+
+/// The largest line spacing exponent (spec §6.6) that at least 15 in 16 of the nonzero line
+/// parameters `js` (found with spacing 1) are multiples of; 0 when there are none.
+fn common_shift(js: &[i64]) -> u32 {
+    let nonzero: Vec<u32> = js.iter().filter(|&&j| j != 0).map(|j| j.trailing_zeros()).collect();
+    if nonzero.is_empty() {
+        return 0;
+    }
+    let mut best = 0;
+    for shift in 1..=MAX_LINE_SHIFT {
+        let fits = nonzero.iter().filter(|&&z| z >= shift).count();
+        if fits * 16 >= nonzero.len() * 15 {
+            best = shift;
+        } else {
+            break;
+        }
+    }
+    best
 }
 
 fn finish(
     st: Streams,
-    (mode, predictor): (Mode, u8),
+    (mode, predictor, line_shift): (Mode, u8, u32),
     has_lattice: bool,
     level: PlainLevel,
     face_new: Vec<u32>,
@@ -511,7 +547,7 @@ fn finish(
     let mut payload = Vec::new();
     payload.push(mode as u8);
     payload.push(if has_lattice { BLOCK_FLAG_LATTICE } else { 0 });
-    payload.extend([predictor, 0]);
+    payload.extend([predictor, line_shift as u8]);
     payload.extend((nv as u32).to_le_bytes());
     payload.extend((level.parents.len() as u32).to_le_bytes());
     payload.extend((level.indices.len() as u32).to_le_bytes());
@@ -531,6 +567,7 @@ fn finish(
         split_bytes: (topo, geo),
         mode,
         predictor,
+        line_shift,
         pos: Vec::new(),
         parent_quads: Vec::new(),
     }

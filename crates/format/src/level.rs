@@ -250,8 +250,11 @@ pub struct Topo<'a> {
     pub parent_quads: Option<&'a [([u32; 4], u8)]>,
     /// Lattice mode: [`PREDICTOR_NORMAL`] or [`PREDICTOR_BILINEAR`].
     pub predictor: u8,
-    /// Prediction lines (spec §6.6): pass A also predicts each vertex's line and line parameter.
+    /// Prediction lines (spec §6.6): every vertex also gets a line and a predicted parameter.
     pub lines: bool,
+    /// Line spacing exponent (spec §6.6): consecutive line points are `2^line_shift` apart along
+    /// the direction's largest axis.
+    pub line_shift: u32,
 }
 
 /// Lattice predictor 0: the lattice point moved along the parent normal (spec §6.3).
@@ -262,6 +265,8 @@ pub const PREDICTOR_BILINEAR: u8 = 1;
 pub const PREDICTOR_LINES: u8 = 2;
 /// The largest magnitude of a line parameter `j` (spec §6.6).
 pub const LINE_PARAM_LIMIT: i64 = 1 << 30;
+/// The largest line spacing exponent (spec §4.1, `line_shift`).
+pub const MAX_LINE_SHIFT: u32 = 16;
 
 /// A vertex's prediction line (spec §6.6): the grid points `base + round_away(j * u)` for integer
 /// `j`, where `u` is the predicted normal scaled so that its largest component is exactly ±1.
@@ -269,17 +274,20 @@ pub const LINE_PARAM_LIMIT: i64 = 1 << 30;
 pub struct Line {
     /// The line's point for `j = 0` (the base prediction).
     pub base: [i64; 3],
-    /// The direction, largest component ±1.
+    /// The direction, largest component `±2^shift`.
     pub u: [f64; 3],
 }
 
 impl Line {
-    /// The line through `base` along `n` (`(0, 0, 1)` when `n` is zero).
+    /// The line through `base` along `n` (`(0, 0, 1)` when `n` is zero), its points `2^shift`
+    /// apart along the largest axis (`shift <= MAX_LINE_SHIFT`).
     #[inline]
-    pub fn new(base: [i64; 3], n: [f64; 3]) -> Self {
+    pub fn new(base: [i64; 3], n: [f64; 3], shift: u32) -> Self {
         let m = n[0].abs().max(n[1].abs()).max(n[2].abs());
         let u = if m > 0.0 { [n[0] / m, n[1] / m, n[2] / m] } else { [0.0, 0.0, 1.0] };
-        Self { base, u }
+        // Scaling by a power of two is exact.
+        let scale = f64::from(1u32 << shift.min(MAX_LINE_SHIFT));
+        Self { base, u: [u[0] * scale, u[1] * scale, u[2] * scale] }
     }
 
     /// The grid point of parameter `j` (`|j| <= LINE_PARAM_LIMIT`), saturating.
@@ -295,9 +303,16 @@ impl Line {
 
     /// The parameter of grid point `q` when `q` lies on the line (within the parameter limit).
     pub fn param(&self, q: [i64; 3]) -> Option<i64> {
-        #[allow(clippy::float_cmp)] // exactly ±1 by construction (spec §6.6)
-        let a = (0..3).find(|&a| self.u[a].abs() == 1.0)?;
-        let j = (q[a].checked_sub(self.base[a])?).checked_mul(self.u[a] as i64)?;
+        // The largest component is exactly ±2^shift by construction (spec §6.6).
+        let top = self.u[0].abs().max(self.u[1].abs()).max(self.u[2].abs());
+        #[allow(clippy::float_cmp)]
+        let a = (0..3).find(|&a| self.u[a].abs() == top)?;
+        let d = q[a].checked_sub(self.base[a])?;
+        let step = self.u[a] as i64;
+        if step == 0 || d % step != 0 {
+            return None;
+        }
+        let j = d / step;
         (j.abs() <= LINE_PARAM_LIMIT && self.point(j) == q).then_some(j)
     }
 }
@@ -483,7 +498,7 @@ pub fn geometry_pass<E>(
             }
             let (line, param) = if lines {
                 let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
-                (Some(Line::new(base, normal)), jp)
+                (Some(Line::new(base, normal, topo.line_shift)), jp)
             } else {
                 (None, 0)
             };
@@ -531,8 +546,9 @@ pub fn geometry_pass<E>(
             [0; 3]
         };
         let base = clamp(pred);
-        let line =
-            topo.lines.then(|| Line::new(base, fan_normal(&nbr[range(v)], q, base, |u| ctx[u] != NONE || u < v)));
+        let line = topo.lines.then(|| {
+            Line::new(base, fan_normal(&nbr[range(v)], q, base, |u| ctx[u] != NONE || u < v), topo.line_shift)
+        });
         q[v] = step(v, &Prediction { point: base, line, param: 0 })?.0;
     }
     Ok(())
@@ -667,9 +683,10 @@ mod tests {
     #[test]
     fn every_line_point_has_one_parameter() {
         let normals = [[3.0, -7.0, 2.0], [0.0, 0.0, 0.0], [1e9, 1e9, -1e9], [-5.0, 0.5, 0.0], [0.0, -2.0, 2.0]];
-        for n in normals {
-            let line = Line::new([10, -20, 30], n);
-            assert!(line.u.iter().any(|x| x.abs().to_bits() == 1f64.to_bits()), "{n:?}");
+        for (n, shift) in normals.into_iter().zip([0, 3, 0, 1, 16]) {
+            let line = Line::new([10, -20, 30], n, shift);
+            let top = f64::from(1u32 << shift);
+            assert!(line.u.iter().any(|x| x.abs().to_bits() == top.to_bits()), "{n:?}");
             for j in (-300..300).chain([LINE_PARAM_LIMIT, -LINE_PARAM_LIMIT]) {
                 let q = line.point(j);
                 assert_eq!(line.param(q), Some(j), "{n:?} j {j}");

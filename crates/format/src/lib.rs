@@ -301,6 +301,8 @@ pub struct LevelStats {
     pub mode: u8,
     /// The block's `predictor` byte: bit 0 the lattice predictor, bit 1 line geometry (spec §4.1).
     pub predictor: u8,
+    /// The block's `line_shift` (spec §6.6).
+    pub line_shift: u32,
     /// Stored bytes of the level (one zstd frame).
     pub stored: usize,
     /// Bytes of the topology streams, zstd-compressed on their own.
@@ -469,6 +471,7 @@ fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<Lev
         stats.push(LevelStats {
             mode: enc.payload[0],
             predictor: enc.predictor,
+            line_shift: enc.line_shift,
             stored: stored.len(),
             topology,
             geometry,

@@ -14,7 +14,7 @@ use crate::decode::PlainLevel;
 use crate::encode::{self, Encoded};
 use crate::error::EncodeError;
 use crate::level::{
-    GRID_LIMIT, LINE_PARAM_LIMIT, Line, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL, Topo, geometry_pass,
+    GRID_LIMIT, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL, Topo, geometry_pass,
 };
 use crate::{EncodeOptions, Grid, choose_grid, input_level};
 
@@ -50,6 +50,10 @@ impl LinePlacement {
         2
     }
 }
+
+/// Line points per voxel edge of the vertex's level, at least (spec §6.6 `line_shift`): the height
+/// error is then at most about 1/32 of a voxel (RMS 1/55), far below the reconstruction's own.
+const LINE_POINTS_PER_VOXEL: f64 = 16.0;
 
 /// The smallest cosine between a vertex's line and its tangent plane's normal for which the
 /// vertex slides to their intersection (60 degrees).
@@ -106,7 +110,12 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
             parent = Some(enc.level);
             continue;
         };
-        let limit = LinePlacement::max_move_voxels() * extent / f64::from(1u32 << k.min(30));
+        let voxel = extent / f64::from(1u32 << k.min(30));
+        let limit = LinePlacement::max_move_voxels() * voxel;
+        // Line points at most a 16th of a voxel apart (spec §6.6, line_shift): coarse levels need
+        // no finer heights, and each halving of the spacing costs a bit per vertex.
+        let line_shift =
+            ((voxel / grid.step / LINE_POINTS_PER_VOXEL).log2().floor().max(0.0) as u32).min(MAX_LINE_SHIFT);
         let normals = vertex_normals(&h.levels[k].mesh);
         let candidates: &[u8] =
             if enc.mode == Mode::Lattice { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
@@ -115,7 +124,7 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
             let c = place_level(
                 &enc,
                 pl,
-                (k as u32, grid.bits, predictor),
+                (k as u32, grid.bits, predictor, line_shift),
                 &h.levels[k].mesh.vertices.positions,
                 &normals,
                 |line, x, n| slide(line, x, n, &grid, limit, guard.as_ref()),
@@ -178,7 +187,7 @@ struct Candidate {
 fn place_level(
     enc: &Encoded,
     parent: &PlainLevel,
-    (k, bits, predictor): (u32, u32, u8),
+    (k, bits, predictor, line_shift): (u32, u32, u8, u32),
     positions: &[DVec3],
     normals: &[DVec3],
     mut slide: impl FnMut(&Line, DVec3, DVec3) -> Option<(DVec3, [i64; 3])>,
@@ -198,6 +207,7 @@ fn place_level(
         parent_quads: (enc.mode == Mode::Lattice).then_some(&enc.parent_quads[..]),
         predictor,
         lines: true,
+        line_shift,
     };
     let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
     let mut q = vec![[0i64; 3]; level.q.len()];

@@ -167,6 +167,21 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
         "a rotation byte of level 1 with bit 7 set",
         reseal(&base, &p, None).unwrap(),
     ));
+    out.extend(invalid_lines_set());
+    let mut p = good_payloads;
+    p[1][64] |= 0xf0;
+    out.push((
+        "child_mask_high_bits.mrq",
+        "Invalid",
+        "a lattice child mask with bits 4-7 set",
+        reseal(&base, &p, None).unwrap(),
+    ));
+    out
+}
+
+/// Invalid files about line geometry (spec §6.6), from a placed hierarchy.
+fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
+    let mut out = Vec::new();
     let lines = encode(&placed(cube_hierarchy(3, Edits::default(), 3)), &q(12)).unwrap();
     let mut b = lines.clone();
     b[8] = 1;
@@ -181,20 +196,28 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
         reseal(&lines, &p, None).unwrap(),
     ));
     let mut p = payloads(&lines).unwrap();
+    p[0][3] = 1;
+    out.push((
+        "line_shift_without_lines.mrq",
+        "Invalid",
+        "level 0's block header has line_shift 1 without the line bit",
+        reseal(&lines, &p, None).unwrap(),
+    ));
+    let mut p = payloads(&lines).unwrap();
+    p[2][3] = 17;
+    out.push((
+        "line_shift_17.mrq",
+        "Invalid",
+        "level 2's line_shift is 17 (at most 16)",
+        reseal(&lines, &p, None).unwrap(),
+    ));
+    let mut p = payloads(&lines).unwrap();
     p[1][2] |= 4;
     out.push((
         "reserved_predictor_bits.mrq",
         "Invalid",
         "level 1's predictor byte has bit 2 set",
         reseal(&lines, &p, None).unwrap(),
-    ));
-    let mut p = good_payloads;
-    p[1][64] |= 0xf0;
-    out.push((
-        "child_mask_high_bits.mrq",
-        "Invalid",
-        "a lattice child mask with bits 4-7 set",
-        reseal(&base, &p, None).unwrap(),
     ));
     out
 }
