@@ -26,10 +26,10 @@ use crate::progress;
 /// Output: PLY or OBJ (or OFF, STL) get one level, the finest or --level K; an .mrq file gets the
 /// whole hierarchy with its parent links. For .mrq output the vertices first slide along their
 /// tangent planes onto the lines the MRQ decoder predicts from the level above, and onto the
-/// quantization grid, so that each costs one number and the file holds them exactly (about 40 %
-/// smaller; --keep-positions writes them as reconstructed, within half a grid step). --all-levels
-/// DIR also writes DIR/level-K.ply for every level K from 0 (the root cube), with the positions
-/// the .mrq output holds.
+/// quantization grid, so that each costs one number and the file holds them exactly (files half
+/// to two thirds smaller at the default 16 bits; --keep-positions writes the positions as
+/// reconstructed, each within half a grid step). --all-levels DIR also writes DIR/level-K.ply for
+/// every level K from 0 (the root cube), with the positions the .mrq output holds.
 ///
 /// Examples:
 ///   octowrap reconstruct bunny.ply -o bunny-mesh.ply
