@@ -120,8 +120,6 @@ impl Cells {
     /// mapped from the neighbours' points.
     pub(crate) fn fill_gaps(&mut self) -> usize {
         let level = self.level;
-        let n = 1i64 << level;
-        let count = |k: u64| self.find(k).map(|i| self.range(i).len());
         let mut candidates: Vec<u64> = (0..self.len())
             .into_par_iter()
             .flat_map_iter(|i| {
@@ -135,31 +133,25 @@ impl Cells {
         let fill: Vec<u64> = candidates
             .into_par_iter()
             .filter(|&w| {
-                let c = morton::decode(w);
+                let points = |delta: [i32; 3]| {
+                    crate::lattice::offset(w, delta, level).and_then(|k| self.find(k)).map(|i| self.range(i).len())
+                };
                 (0..3).any(|a| {
-                    let at = |delta: [i32; 3]| {
-                        let v: Vec<i64> = (0..3).map(|k| i64::from(c[k]) + i64::from(delta[k])).collect();
-                        if v.iter().any(|&x| x < 0 || x >= n) {
-                            return None;
-                        }
-                        count(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32))
-                    };
                     let mut along = [0i32; 3];
                     along[a] = 1;
-                    if at(along).is_some() && at(along.map(|x| -x)).is_some() {
-                        return false;
-                    }
                     let (b, e) = ((a + 1) % 3, (a + 2) % 3);
-                    let (mut occupied, mut points) = (0usize, 0usize);
+                    let (mut occupied, mut total) = (0usize, 0usize);
                     for (axis, sign) in [(b, 1), (b, -1), (e, 1), (e, -1)] {
                         let mut delta = [0i32; 3];
                         delta[axis] = sign;
-                        if let Some(p) = at(delta) {
+                        if let Some(p) = points(delta) {
                             occupied += 1;
-                            points += p;
+                            total += p;
                         }
                     }
-                    occupied >= 3 && points <= GAP_POINTS * occupied
+                    occupied >= 3
+                        && total <= GAP_POINTS * occupied
+                        && (points(along).is_none() || points(along.map(|x| -x)).is_none())
                 })
             })
             .collect();
