@@ -510,17 +510,30 @@ impl View<'_> {
     /// component shrinks to a double-sided sliver; no surviving triangle around `a` or `b` turns
     /// its normal by 90 degrees or more.
     fn can_collapse(&self, a: u32, b: u32, to: DVec3, marks: &mut Marks) -> bool {
+        let flips = |v: u32, tri: [u32; 3]| {
+            let p = |i: u32| self.pos[i as usize];
+            let (x, y, z) = (p(tri[0]), p(tri[1]), p(tri[2]));
+            let before = (y - x).cross(z - x);
+            let q = |i: u32| if i == v { to } else { p(i) };
+            let (x, y, z) = (q(tri[0]), q(tri[1]), q(tri[2]));
+            let after = (y - x).cross(z - x);
+            before != DVec3::ZERO && before.dot(after) <= 1e-4 * before.length() * after.length()
+        };
+        let moves_a = to != self.pos[a as usize];
         let s = marks.next();
         let mark = &mut marks.mark;
         let mut shared = 0usize;
         let mut apex = [u32::MAX; 2];
         let mut degree = 0usize;
+        // One walk around b: the edge's triangles, b's neighbours, and flips of b's other faces.
         for tri in self.live(b) {
             if tri.contains(&a) {
                 if shared < 2 {
                     apex[shared] = tri.into_iter().find(|&v| v != a && v != b).unwrap_or(u32::MAX);
                 }
                 shared += 1;
+            } else if flips(b, tri) {
+                return false;
             }
             for v in tri {
                 if v != b && v != a && mark[v as usize] != s {
@@ -537,8 +550,12 @@ impl View<'_> {
         if ka != Kind::Interior && kb != Kind::Interior && shared != 1 {
             return false;
         }
+        // One walk around a: common neighbours (the link condition) and flips of a's other faces.
         let mut common = 0usize;
         for tri in self.live(a) {
+            if moves_a && !tri.contains(&b) && flips(a, tri) {
+                return false;
+            }
             for v in tri {
                 if v == a || v == b {
                     continue;
@@ -556,22 +573,7 @@ impl View<'_> {
                 }
             }
         }
-        if common != shared || degree < if border { 2 } else { 3 } {
-            return false;
-        }
-        let flips = |v: u32, tri: [u32; 3]| {
-            let p = |i: u32| self.pos[i as usize];
-            let (x, y, z) = (p(tri[0]), p(tri[1]), p(tri[2]));
-            let before = (y - x).cross(z - x);
-            let q = |i: u32| if i == v { to } else { p(i) };
-            let (x, y, z) = (q(tri[0]), q(tri[1]), q(tri[2]));
-            let after = (y - x).cross(z - x);
-            before != DVec3::ZERO && before.dot(after) <= 1e-4 * before.length() * after.length()
-        };
-        if self.live(b).any(|t| !t.contains(&a) && flips(b, t)) {
-            return false;
-        }
-        to == self.pos[a as usize] || !self.live(a).any(|t| !t.contains(&b) && flips(a, t))
+        common == shared && degree >= if border { 2 } else { 3 }
     }
 }
 

@@ -3,7 +3,7 @@
 //! symmetric 4x4 matrix stored by its 10 distinct coefficients, plus the total weight so that the
 //! error can be read as a weighted *mean* squared distance (as meshoptimizer does).
 
-use octowrap_geom::{DMat3, DVec3};
+use octowrap_geom::DVec3;
 
 /// `Σ wᵢ (nᵢ·p + dᵢ)²` as `pᵀ A p + 2 b·p + c`, with `w = Σ wᵢ`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -74,14 +74,16 @@ impl Quadric {
         if self.w <= 0.0 {
             return None;
         }
-        let s = 1.0 / self.w;
-        let [xx, xy, xz, yy, yz, zz] = self.a.map(|v| v * s);
-        let m = DMat3::from_cols(DVec3::new(xx, xy, xz), DVec3::new(xy, yy, yz), DVec3::new(xz, yz, zz));
-        let det = m.determinant();
-        if det.is_nan() || det.abs() <= 1e-9 {
+        let [xx, xy, xz, yy, yz, zz] = self.a;
+        let (r0, r1, r2) = (DVec3::new(xx, xy, xz), DVec3::new(xy, yy, yz), DVec3::new(xz, yz, zz));
+        // A is symmetric: its inverse is the cofactor matrix (rows r1 x r2, r2 x r0, r0 x r1) over
+        // the determinant; det(A / w) = det(A) / w³.
+        let (c0, c1, c2) = (r1.cross(r2), r2.cross(r0), r0.cross(r1));
+        let det = r0.dot(c0);
+        if det.is_nan() || det.abs() <= 1e-9 * self.w * self.w * self.w {
             return None;
         }
-        let p = m.inverse() * -(DVec3::from(self.b) * s);
+        let p = -(c0 * self.b[0] + c1 * self.b[1] + c2 * self.b[2]) / det;
         p.is_finite().then_some(p)
     }
 
