@@ -1,6 +1,7 @@
-//! Structure-aware: the input's first bytes pick a seed file (a synthetic hierarchy) and a level;
-//! the rest overwrites that level's decompressed payload, and the file is resealed (checksums
-//! fixed) so that the mutation reaches the level decoder. Must never panic.
+//! Structure-aware: the input's first bytes pick a seed file (a synthetic hierarchy; bit 3 of the
+//! first byte: placed on its prediction lines, so that levels code line geometry) and a level; the
+//! rest overwrites that level's decompressed payload, and the file is resealed (checksums fixed)
+//! so that the mutation reaches the level decoder. Must never panic.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -11,8 +12,13 @@ use octowrap_format::{DecodeOptions, EncodeOptions, Limits, Quantization, decode
 fuzz_target!(|data: &[u8]| {
     let [which, level, rest @ ..] = data else { return };
     let h = cube_hierarchy(3, Edits::default(), u64::from(*which % 4));
-    let h = if which & 4 != 0 { without_lattice(h) } else { h };
-    let Ok(bytes) = encode(&h, &EncodeOptions::with_quantization(Quantization::Bits(12))) else { return };
+    let mut h = if which & 4 != 0 { without_lattice(h) } else { h };
+    let q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    if which & 8 != 0 {
+        // Line geometry (spec §6.6): vertices placed on their prediction lines.
+        let Ok(_) = octowrap_format::place_on_prediction_lines(&mut h, &q12) else { return };
+    }
+    let Ok(bytes) = encode(&h, &q12) else { return };
     let Some(mut p) = payloads(&bytes) else { return };
     let k = usize::from(*level) % p.len();
     // XOR the fuzz bytes over the payload, keeping its length unless the input is longer.

@@ -8,6 +8,11 @@ use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, witho
 use octowrap_format::{DecodeOptions, EncodeOptions, Limits, Quantization, decode, encode};
 use octowrap_mesh::Hierarchy;
 
+fn placed(mut h: Hierarchy, q: &EncodeOptions) -> Hierarchy {
+    octowrap_format::place_on_prediction_lines(&mut h, q).unwrap();
+    h
+}
+
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(20000);
     let q = EncodeOptions::with_quantization(Quantization::Bits(12));
@@ -16,6 +21,9 @@ fn main() {
         encode(&without_lattice(cube_hierarchy(3, Edits::default(), 2)), &q).unwrap(),
         encode(&Hierarchy::single(polygon_mesh(30, 20, 3)), &q).unwrap(),
         encode(&cube_hierarchy(3, Edits::default(), 4), &EncodeOptions::with_quantization(Quantization::Exact)).unwrap(),
+        // Line geometry (spec §6.6), lattice and generic.
+        encode(&placed(cube_hierarchy(3, Edits::default(), 5), &q), &q).unwrap(),
+        encode(&placed(without_lattice(cube_hierarchy(3, Edits::default(), 6)), &q), &q).unwrap(),
     ];
     let mut opts = DecodeOptions::default();
     opts.limits = Limits::strict();
