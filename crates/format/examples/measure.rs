@@ -70,6 +70,22 @@ fn main() {
                 at += n;
             }
             println!("{line}");
+            if p[2] & 2 != 0 {
+                // Line geometry (spec §6.6): flags, parameters, other vertices' residuals.
+                let nv = u32::from_le_bytes(p[4..8].try_into().unwrap()) as usize;
+                let geo = &p[at - sizes[11]..at];
+                let nf = nv.div_ceil(8);
+                let lines: usize = geo[..nf].iter().map(|b| b.count_ones() as usize).sum();
+                let params_end = nf + 1 + usize::from(geo[nf]) * lines;
+                let z = |b: &[u8]| zstd::bulk::compress(b, 19).unwrap().len();
+                println!(
+                    "  finest level geometry: {lines} line vertices, {} others; flags {} B, parameters {} B, residuals {} B (zstd apart)",
+                    nv - lines,
+                    z(&geo[..nf]),
+                    z(&geo[nf..params_end]),
+                    z(&geo[params_end..])
+                );
+            }
         }
         if std::env::var_os("MEASURE_CREATED").is_some() {
             created_key_orders(&h);
