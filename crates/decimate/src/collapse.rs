@@ -116,60 +116,67 @@ fn has_half_edge(adj: &Csr, tris: &[[u32; 3]], from: u32, to: u32) -> bool {
 pub(crate) fn classify(n: usize, tris: &[[u32; 3]], adj: &Csr, lock_border: bool) -> Vec<Kind> {
     (0..n as u32)
         .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new()),
-            |(link, prevs), v| {
-                let ts = adj.of(v);
-                if ts.is_empty() {
-                    return Kind::Interior;
-                }
-                // The link of v: for each triangle, the edge next -> prev opposite v.
-                let (link, prevs): (&mut Vec<(u32, u32)>, &mut Vec<u32>) = (link, prevs);
-                link.clear();
-                prevs.clear();
-                for &t in ts {
-                    let tri = tris[t as usize];
-                    let k = tri.iter().position(|&x| x == v).unwrap_or(0);
-                    let (next, prev) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
-                    if next == v || prev == v || next == prev {
-                        return Kind::Frozen;
-                    }
-                    link.push((next, prev));
-                }
-                if link.len() <= 12 {
-                    return classify_small(link, lock_border);
-                }
-                link.sort_unstable();
-                prevs.extend(link.iter().map(|e| e.1));
-                prevs.sort_unstable();
-                if link.windows(2).any(|w| w[0].0 == w[1].0) || prevs.windows(2).any(|w| w[0] == w[1]) {
-                    return Kind::Frozen;
-                }
-                // Paths start at link vertices with no incoming link edge.
-                let mut starts = link.iter().map(|e| e.0).filter(|x| prevs.binary_search(x).is_err());
-                let (first, open) = (starts.next(), starts.next());
-                if open.is_some() {
-                    return Kind::Frozen;
-                }
-                let starts = first;
-                let mut at = starts.unwrap_or(link[0].0);
-                let mut steps = 0;
-                while let Ok(i) = link.binary_search_by_key(&at, |e| e.0) {
-                    steps += 1;
-                    at = link[i].1;
-                    if steps > link.len() || (starts.is_none() && at == link[0].0) {
-                        break;
-                    }
-                }
-                match (steps == link.len(), starts.is_none()) {
-                    (false, _) => Kind::Frozen,
-                    (true, true) => Kind::Interior,
-                    (true, false) if lock_border => Kind::Locked,
-                    (true, false) => Kind::Border,
-                }
-            },
-        )
+        .map_init(|| (Vec::new(), Vec::new()), |(link, prevs), v| vertex_kind(v, tris, adj, lock_border, link, prevs))
         .collect()
+}
+
+/// The kind of vertex `v` (see [`classify`]); `link` and `prevs` are scratch space.
+fn vertex_kind(
+    v: u32,
+    tris: &[[u32; 3]],
+    adj: &Csr,
+    lock_border: bool,
+    link: &mut Vec<(u32, u32)>,
+    prevs: &mut Vec<u32>,
+) -> Kind {
+    let ts = adj.of(v);
+    if ts.is_empty() {
+        return Kind::Interior;
+    }
+    // The link of v: for each triangle, the edge next -> prev opposite v.
+    let (link, prevs): (&mut Vec<(u32, u32)>, &mut Vec<u32>) = (link, prevs);
+    link.clear();
+    prevs.clear();
+    for &t in ts {
+        let tri = tris[t as usize];
+        let k = tri.iter().position(|&x| x == v).unwrap_or(0);
+        let (next, prev) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+        if next == v || prev == v || next == prev {
+            return Kind::Frozen;
+        }
+        link.push((next, prev));
+    }
+    if link.len() <= 12 {
+        return classify_small(link, lock_border);
+    }
+    link.sort_unstable();
+    prevs.extend(link.iter().map(|e| e.1));
+    prevs.sort_unstable();
+    if link.windows(2).any(|w| w[0].0 == w[1].0) || prevs.windows(2).any(|w| w[0] == w[1]) {
+        return Kind::Frozen;
+    }
+    // Paths start at link vertices with no incoming link edge.
+    let mut starts = link.iter().map(|e| e.0).filter(|x| prevs.binary_search(x).is_err());
+    let (first, open) = (starts.next(), starts.next());
+    if open.is_some() {
+        return Kind::Frozen;
+    }
+    let starts = first;
+    let mut at = starts.unwrap_or(link[0].0);
+    let mut steps = 0;
+    while let Ok(i) = link.binary_search_by_key(&at, |e| e.0) {
+        steps += 1;
+        at = link[i].1;
+        if steps > link.len() || (starts.is_none() && at == link[0].0) {
+            break;
+        }
+    }
+    match (steps == link.len(), starts.is_none()) {
+        (false, _) => Kind::Frozen,
+        (true, true) => Kind::Interior,
+        (true, false) if lock_border => Kind::Locked,
+        (true, false) => Kind::Border,
+    }
 }
 
 /// [`classify`] for a small link (`next -> prev` edges), by linear scans.
@@ -209,9 +216,9 @@ fn classify_small(link: &[(u32, u32)], lock_border: bool) -> Kind {
 /// Weight of the boundary planes, relative to the squared edge length.
 const BOUNDARY_WEIGHT: f64 = 2.0;
 
-/// Area-weighted face-plane quadrics, plus the plane through each boundary edge perpendicular to
-/// its face.
-fn vertex_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, kind: &[Kind]) -> Vec<Quadric> {
+/// The area-weighted face-plane quadric of `v`, plus the plane through each boundary edge at `v`
+/// perpendicular to its face.
+fn vertex_quadric(v: u32, kind: Kind, pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr) -> Quadric {
     // Face planes are recomputed at each of their three corners: cheaper than reading them back
     // from a per-face array that would not fit in cache.
     let plane = |t: &[u32; 3]| {
@@ -225,32 +232,41 @@ fn vertex_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, kind: &[Kind]) -
             (Quadric::default(), DVec3::ZERO)
         }
     };
-    (0..pos.len() as u32)
-        .into_par_iter()
-        .map(|v| {
-            let mut q = Quadric::default();
-            for &t in adj.of(v) {
-                let (fq, normal) = plane(&tris[t as usize]);
-                q.add(&fq);
-                // Only border (and frozen) vertices can lie on a boundary edge.
-                if kind[v as usize] == Kind::Interior {
-                    continue;
-                }
-                let tri = tris[t as usize];
-                for k in 0..3 {
-                    let (x, y) = (tri[k], tri[(k + 1) % 3]);
-                    if (x == v || y == v) && !has_half_edge(adj, tris, y, x) {
-                        let e = pos[y as usize] - pos[x as usize];
-                        let m = e.cross(normal).normalize_or_zero();
-                        if m != DVec3::ZERO {
-                            q.add(&Quadric::plane_through(pos[x as usize], m, BOUNDARY_WEIGHT * e.length_squared()));
-                        }
-                    }
+    let mut q = Quadric::default();
+    for &t in adj.of(v) {
+        let (fq, normal) = plane(&tris[t as usize]);
+        q.add(&fq);
+        // Only border (and frozen) vertices can lie on a boundary edge.
+        if kind == Kind::Interior {
+            continue;
+        }
+        let tri = tris[t as usize];
+        for k in 0..3 {
+            let (x, y) = (tri[k], tri[(k + 1) % 3]);
+            if (x == v || y == v) && !has_half_edge(adj, tris, y, x) {
+                let e = pos[y as usize] - pos[x as usize];
+                let m = e.cross(normal).normalize_or_zero();
+                if m != DVec3::ZERO {
+                    q.add(&Quadric::plane_through(pos[x as usize], m, BOUNDARY_WEIGHT * e.length_squared()));
                 }
             }
-            q
-        })
-        .collect()
+        }
+    }
+    q
+}
+
+/// [`classify`] and the vertex quadrics, in one walk over each vertex's triangles.
+fn kinds_and_quadrics(pos: &[DVec3], tris: &[[u32; 3]], adj: &Csr, lock_border: bool) -> (Vec<Kind>, Vec<Quadric>) {
+    (0..pos.len() as u32)
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(link, prevs), v| {
+                let k = vertex_kind(v, tris, adj, lock_border, link, prevs);
+                (k, vertex_quadric(v, k, pos, tris, adj))
+            },
+        )
+        .unzip()
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -292,9 +308,8 @@ pub(crate) fn run(
 ) -> Outcome {
     let n = pos.len();
     let mut adj = Csr::build(n, &tris);
-    let kind = classify(n, &tris, &adj, lock_border);
+    let (kind, mut quadrics) = kinds_and_quadrics(&pos, &tris, &adj, lock_border);
     let frozen = kind.iter().filter(|&&k| k == Kind::Frozen).count();
-    let mut quadrics = vertex_quadrics(&pos, &tris, &adj, &kind);
     let mut touched = vec![0u32; n];
     let mut scratch = Marks { mark: vec![0; n], stamp: 0 };
     let (mut reached, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
