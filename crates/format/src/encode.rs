@@ -29,6 +29,8 @@ pub struct InputLevel<'a> {
     pub q: Vec<[i64; 3]>,
     /// Exact positions (exact files) in input vertex order.
     pub exact: Vec<[f64; 3]>,
+    /// Only order and topology are wanted (line placement): the geometry stream stays empty.
+    pub topology_only: bool,
 }
 
 /// The encoded level: payload, what the decoder will rebuild, and the face permutation
@@ -385,31 +387,33 @@ pub fn encode_level(
     let quads = if mode == Mode::Lattice { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
     let mut line_shift = 0u32;
-    st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (0, 0)).0;
-    if !exact {
-        // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
-        let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
-        let mut best = size(&st.0[s::GEOMETRY]);
-        let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
-            let n = size(&bytes);
-            if n < best {
-                best = n;
-                st.0[s::GEOMETRY] = bytes;
-                (predictor, line_shift) = variant;
+    if !input.topology_only {
+        st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (0, 0)).0;
+        if !exact {
+            // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
+            let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
+            let mut best = size(&st.0[s::GEOMETRY]);
+            let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
+                let n = size(&bytes);
+                if n < best {
+                    best = n;
+                    st.0[s::GEOMETRY] = bytes;
+                    (predictor, line_shift) = variant;
+                }
+            };
+            if mode == Mode::Lattice {
+                consider(geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (1, 0)).0, (1, 0), &mut st);
             }
-        };
-        if mode == Mode::Lattice {
-            consider(geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (1, 0)).0, (1, 0), &mut st);
-        }
-        let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
-        for &p in line_predictors {
-            let variant = p | PREDICTOR_LINES;
-            let (bytes, js) = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, 0));
-            consider(bytes, (variant, 0), &mut st);
-            let shift = common_shift(&js);
-            if shift > 0 {
-                let bytes = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, shift)).0;
-                consider(bytes, (variant, shift), &mut st);
+            let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
+            for &p in line_predictors {
+                let variant = p | PREDICTOR_LINES;
+                let (bytes, js) = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, 0));
+                consider(bytes, (variant, 0), &mut st);
+                let shift = common_shift(&js);
+                if shift > 0 {
+                    let bytes = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, shift)).0;
+                    consider(bytes, (variant, shift), &mut st);
+                }
             }
         }
     }

@@ -457,6 +457,7 @@ fn input_level<'a>(
         corners: l.lattice.as_ref().map(|x| &x.vertex_corners[..]),
         q,
         exact,
+        topology_only: false,
     })
 }
 

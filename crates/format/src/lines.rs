@@ -166,7 +166,8 @@ fn encode_one(
     parent_face_new: &[u32],
     parent: Option<&PlainLevel>,
 ) -> Result<Encoded, EncodeError> {
-    let input = input_level(h, k, grid, parent_face_new)?;
+    let mut input = input_level(h, k, grid, parent_face_new)?;
+    input.topology_only = true;
     encode::encode_level(k as u32, &input, parent, grid.exact, grid.tied, grid.bits)
 }
 
