@@ -35,7 +35,7 @@ pub fn report() {
     let extent = bounds.size().max_element();
     let threads = rayon::current_num_threads();
     println!(
-        "dragon: {faces} triangles, {} vertices, bbox diagonal {diag:.6}; octowrap on {threads} rayon threads, meshoptimizer on one; time = best of 3",
+        "dragon: {faces} triangles, {} vertices, bbox diagonal {diag:.6}; octowrap on {threads} rayon threads, meshoptimizer on one; time = best of 5",
         mesh.vertex_count()
     );
     println!();
@@ -54,7 +54,7 @@ pub fn report() {
     let sampling = Sampling::with_samples(1_000_000);
     for (label, ratio) in [("10 %", 0.1), ("1 %", 0.01)] {
         let target = (faces as f64 * ratio).round() as usize;
-        let (t, out) = best_of(3, || decimate(&mesh, &DecimateOptions::target_faces(target)));
+        let (t, out) = best_of(5, || decimate(&mesh, &DecimateOptions::target_faces(target)));
         match out {
             Ok(out) => {
                 let d = distance(&mesh, &out.mesh, &sampling);
@@ -78,7 +78,7 @@ pub fn report() {
             }
         };
         let mut err = 0.0f32;
-        let (t, idx) = best_of(3, || {
+        let (t, idx) = best_of(5, || {
             meshopt::simplify(&indices, &adapter, target * 3, f32::MAX, meshopt::SimplifyOptions::None, Some(&mut err))
         });
         let tris: Vec<[u32; 3]> = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
