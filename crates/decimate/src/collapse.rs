@@ -277,6 +277,9 @@ struct Candidate {
     to: DVec3,
 }
 
+/// A triangle removed during a pass (in its first corner; vertex numbers stay below `u32::MAX`).
+const DEAD: u32 = u32::MAX;
+
 /// Sort key of a half-edge that makes no candidate.
 const NONE: u64 = u64::MAX;
 /// Sort key of a candidate over the error bound.
@@ -339,7 +342,6 @@ pub(crate) fn run(
         });
         order.par_sort_unstable();
         let mut live = tris.len();
-        let mut dead = vec![false; tris.len()];
         let mut applied = 0;
         let mut at = 0;
         loop {
@@ -366,17 +368,17 @@ pub(crate) fn run(
             let Some(c) = edge_candidate(&pos, &quadrics, &kind, &adj, &tris, a.min(b), a.max(b), false) else {
                 continue;
             };
-            let view = View { pos: &pos, tris: &tris, adj: &adj, dead: &dead, kind: &kind };
+            let view = View { pos: &pos, tris: &tris, adj: &adj, kind: &kind };
             if c.keep != a || !view.can_collapse(a, b, c.to, &mut scratch) {
                 continue;
             }
             for &t in adj.of(b) {
                 let t = t as usize;
-                if dead[t] {
+                if tris[t][0] == DEAD {
                     continue;
                 }
                 if tris[t].contains(&a) {
-                    dead[t] = true;
+                    tris[t] = [DEAD; 3];
                     live -= 1;
                 } else {
                     for v in &mut tris[t] {
@@ -394,11 +396,7 @@ pub(crate) fn run(
             applied += 1;
         }
         collapses += applied;
-        let mut i = 0;
-        tris.retain(|_| {
-            i += 1;
-            !dead[i - 1]
-        });
+        tris.retain(|t| t[0] != DEAD);
         progress(tris.len());
         if applied == 0 {
             break if over_bound { Stop::ErrorBound } else { Stop::NoValidCollapse };
@@ -509,13 +507,12 @@ struct View<'a> {
     pos: &'a [DVec3],
     tris: &'a [[u32; 3]],
     adj: &'a Csr,
-    dead: &'a [bool],
     kind: &'a [Kind],
 }
 
 impl View<'_> {
     fn live(&self, v: u32) -> impl Iterator<Item = [u32; 3]> + '_ {
-        self.adj.of(v).iter().filter(|&&t| !self.dead[t as usize]).map(|&t| self.tris[t as usize])
+        self.adj.of(v).iter().map(|&t| self.tris[t as usize]).filter(|t| t[0] != DEAD)
     }
 
     /// Whether removing `b` into `a` (moved to `to`) keeps the mesh manifold and unflipped: the
