@@ -69,6 +69,10 @@ pub(crate) struct Cells {
 /// Most points per occupied neighbour, on average, around a gap that [`Cells::fill_gaps`] fills.
 pub(crate) const GAP_POINTS: usize = 8;
 
+/// Largest spread (standard deviation, in voxels) of the gap's neighbours' points across the
+/// sheet, for [`Cells::fill_gaps`].
+pub(crate) const GAP_SPREAD: f64 = 0.2;
+
 /// [`Cells::sub`] of a voxel too big to pack its children's offsets in bytes.
 pub(crate) const NO_SUB: u64 = u64::MAX;
 
@@ -110,8 +114,10 @@ impl Cells {
     /// Fills one-voxel gaps in thinly sampled sheets: an empty voxel gets an empty (point-less)
     /// entry when, across some axis, at least 3 of its 4 neighbours in the plane are occupied,
     /// one of its two neighbours along the axis is empty (it lies on the surface, not inside),
-    /// and those occupied neighbours hold at most [`GAP_POINTS`] points on average (a gap in
-    /// sparse sampling, not a hole in densely sampled data). Returns the number filled.
+    /// those occupied neighbours hold at most [`GAP_POINTS`] points on average (a gap in sparse
+    /// sampling, not a hole in densely sampled data), and their points spread less than
+    /// [`GAP_SPREAD`] voxel along the axis (a sheet across it, not the walls and floor of a
+    /// narrow groove, which would be bridged). Returns the number filled.
     ///
     /// Without this, the oriented-sheet mask ([`crate::sheet`]) keeps such a gap open as it
     /// keeps any hole in a sheet: the dragon's sparsely sampled underside showed dozens of
@@ -120,6 +126,7 @@ impl Cells {
     /// mapped from the neighbours' points.
     pub(crate) fn fill_gaps(&mut self) -> usize {
         let level = self.level;
+        let h = self.voxel();
         let mut candidates: Vec<u64> = (0..self.len())
             .into_par_iter()
             .flat_map_iter(|i| {
@@ -141,17 +148,28 @@ impl Cells {
                     along[a] = 1;
                     let (b, e) = ((a + 1) % 3, (a + 2) % 3);
                     let (mut occupied, mut total) = (0usize, 0usize);
+                    let mut sheet = Moments::default();
                     for (axis, sign) in [(b, 1), (b, -1), (e, 1), (e, -1)] {
                         let mut delta = [0i32; 3];
                         delta[axis] = sign;
-                        if let Some(p) = points(delta) {
+                        if let Some(i) = crate::lattice::offset(w, delta, level).and_then(|k| self.find(k)) {
                             occupied += 1;
-                            total += p;
+                            total += self.range(i).len();
+                            if let Some(m) = self.moments.get(i) {
+                                sheet.merge(m);
+                            }
                         }
                     }
+                    // The neighbours' points form a sheet across the axis (not the walls and
+                    // floor of a groove, whose points spread over the voxels' whole depth).
+                    let flat = || {
+                        let spread = sheet.covariance().col(a)[a];
+                        sheet.count >= 3.0 && spread < (GAP_SPREAD * h) * (GAP_SPREAD * h)
+                    };
                     occupied >= 3
                         && total <= GAP_POINTS * occupied
                         && (points(along).is_none() || points(along.map(|x| -x)).is_none())
+                        && flat()
                 })
             })
             .collect();
