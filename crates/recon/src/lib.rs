@@ -443,9 +443,8 @@ pub fn reconstruct_with(
         part_times.push(t.elapsed());
     }
     let t = Instant::now();
-    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback);
-    // child offsets on the levels the mapping of subdivided levels queries.
-    tree.finish(trusted, if finest > trusted { trusted.saturating_sub(1) } else { u32::MAX });
+    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback).
+    tree.finish(trusted);
     part_times[trusted as usize] += t.elapsed();
 
     let mut levels: Vec<Level> = Vec::new();

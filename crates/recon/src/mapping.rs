@@ -27,7 +27,7 @@ use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
 use crate::lattice::offset;
-use crate::octree::{BLOCK, Cells, NO_SUB, Octree};
+use crate::octree::{BLOCK, Cells, Octree};
 
 /// A fitted tangent plane, in local coordinates, kept compact (`f32`: 2^-24 of the root cube,
 /// far below any voxel) for the relaxation; the mapping itself projects in `f64`.
@@ -57,25 +57,13 @@ fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &
     accumulate(&tree.points[cells.range(cell)], x, radius, m);
 }
 
-/// Adds the points within `radius` of `x` (relative to `x`, in `f64`) to `m`. The distance is
-/// tested in `f32` first, with a margin of 2^-20 of the cube (the `f32` error of a difference of
-/// two local coordinates is below 2^-23): points clearly inside are taken, clearly outside
-/// skipped, and only those within the margin of the sphere are tested again in `f64`. The sums
-/// are exactly those of testing every point in `f64`, for fewer instructions.
+/// Adds the points within `radius` of `x` (relative to `x`, in `f64`) to `m`.
 #[inline]
 fn accumulate(points: &[Vec3], x: DVec3, radius: f64, m: &mut Moments) {
     let r2 = radius * radius;
-    let margin = PAD + 1e-6 * radius;
-    let inner = (radius - margin).max(0.0);
-    let (lo, hi) = ((inner * inner) as f32, ((radius + margin) * (radius + margin)) as f32);
-    let x32 = x.as_vec3();
     for p in points {
-        let q = (*p - x32).length_squared();
-        if q >= hi {
-            continue;
-        }
         let d = p.as_dvec3() - x;
-        if q < lo || d.length_squared() < r2 {
+        if d.length_squared() < r2 {
             m.add(d);
         }
     }
@@ -290,10 +278,6 @@ const UNKNOWN: u32 = u32::MAX;
 /// [`BallCache`]: not occupied.
 const ABSENT: u32 = u32::MAX - 1;
 
-/// Fewest points in a voxel for [`gather_ball`] to test its children's reach first (below, the
-/// eight tests cost more than the points they skip).
-const CHILD_MIN: usize = 24;
-
 /// Padding of voxel boxes in the reach test of [`gather_ball`] (local units).
 const PAD: f64 = 1.0 / (1u64 << 20) as f64;
 
@@ -335,53 +319,8 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
             cache.found[o] = cells.find(code).map_or(ABSENT, |i| i as u32);
         }
         if let Some(i) = (cache.found[o] != ABSENT).then_some(cache.found[o] as usize) {
-            match cells.sub.get(i) {
-                Some(&sub) if sub != NO_SUB && cells.range(i).len() >= CHILD_MIN => {
-                    gather_children(tree, cells, i, sub, v, x, radius, m);
-                }
-                _ => gather(tree, cells, i, x, radius, m),
-            }
+            gather(tree, cells, i, x, radius, m);
         }
-    }
-}
-
-/// Like [`gather`] on voxel `i` (coordinates `v`), but skipping the children out of reach (their
-/// boxes padded like the voxels' in [`gather_ball`]); `sub` packs the children's offsets
-/// ([`Cells::sub`]). Points are visited in the same order, so the sums are the same.
-#[allow(clippy::too_many_arguments)] // the hot loop's state, passed flat
-#[inline]
-fn gather_children(
-    tree: &Octree,
-    cells: &Cells,
-    i: usize,
-    sub: u64,
-    v: [i64; 3],
-    x: DVec3,
-    radius: f64,
-    m: &mut Moments,
-) {
-    let r2 = radius * radius;
-    let h = cells.voxel();
-    let half = 0.5 * h;
-    // Squared distance along each axis from x to the lower and the upper half of the voxel.
-    let mut t2 = [[0.0f64; 2]; 3];
-    for a in 0..3 {
-        for (k, t) in t2[a].iter_mut().enumerate() {
-            let lo = v[a] as f64 * h + k as f64 * half - PAD;
-            let d = (lo - x[a]).max(x[a] - (lo + half + 2.0 * PAD)).max(0.0);
-            *t = d * d;
-        }
-    }
-    let range = cells.range(i);
-    let len = range.len();
-    let pts = &tree.points[range];
-    for o in 0..8usize {
-        let s = ((sub >> (8 * o)) & 0xff) as usize;
-        let e = if o == 7 { len } else { ((sub >> (8 * (o + 1))) & 0xff) as usize };
-        if s == e || t2[0][o & 1] + t2[1][(o >> 1) & 1] + t2[2][o >> 2] >= r2 {
-            continue;
-        }
-        accumulate(&pts[s..e], x, radius, m);
     }
 }
 

@@ -59,11 +59,6 @@ pub(crate) struct Cells {
     pub moments: Vec<Moments>,
     /// Morton code to voxel index.
     pub index: KeyMap,
-    /// Where each voxel's eight children start in its point range (byte `o` of entry `i`: the
-    /// offset of child octant `o` from `starts[i]`), for voxels of at most 255 points, else
-    /// [`NO_SUB`]; empty for levels built without them (see [`Octree::finish`]). Ball queries
-    /// use them to skip the children out of reach without looking anything up.
-    pub sub: Vec<u64>,
 }
 
 /// Most points per occupied neighbour, on average, around a gap that [`Cells::fill_gaps`] fills.
@@ -72,9 +67,6 @@ pub(crate) const GAP_POINTS: usize = 8;
 /// Largest spread (standard deviation, in voxels) of the gap's neighbours' points across the
 /// sheet, for [`Cells::fill_gaps`].
 pub(crate) const GAP_SPREAD: f64 = 0.2;
-
-/// [`Cells::sub`] of a voxel too big to pack its children's offsets in bytes.
-pub(crate) const NO_SUB: u64 = u64::MAX;
 
 impl Cells {
     /// Number of occupied voxels.
@@ -180,7 +172,6 @@ impl Cells {
         let total = self.keys.len() + fill.len();
         let (mut keys, mut starts) = (Vec::with_capacity(total), Vec::with_capacity(total + 1));
         let mut moments = Vec::with_capacity(if self.moments.is_empty() { 0 } else { total });
-        let mut sub = Vec::with_capacity(if self.sub.is_empty() { 0 } else { total });
         let (mut i, mut k) = (0, 0);
         while i < self.keys.len() || k < fill.len() {
             if k < fill.len() && (i == self.keys.len() || fill[k] < self.keys[i]) {
@@ -189,18 +180,12 @@ impl Cells {
                 if !self.moments.is_empty() {
                     moments.push(Moments::default());
                 }
-                if !self.sub.is_empty() {
-                    sub.push(0);
-                }
                 k += 1;
             } else {
                 keys.push(self.keys[i]);
                 starts.push(self.starts[i]);
                 if !self.moments.is_empty() {
                     moments.push(self.moments[i]);
-                }
-                if !self.sub.is_empty() {
-                    sub.push(self.sub[i]);
                 }
                 i += 1;
             }
@@ -210,7 +195,6 @@ impl Cells {
         self.keys = keys;
         self.starts = starts;
         self.moments = moments;
-        self.sub = sub;
         fill.len()
     }
 
@@ -270,14 +254,8 @@ impl Octree {
         let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
         drop(pairs);
         let n = local.len() as u32;
-        let root = Cells {
-            level: 0,
-            keys: vec![0],
-            starts: vec![0, n],
-            moments: Vec::new(),
-            index: KeyMap::from_keys(&[0]),
-            sub: Vec::new(),
-        };
+        let root =
+            Cells { level: 0, keys: vec![0], starts: vec![0, n], moments: Vec::new(), index: KeyMap::from_keys(&[0]) };
         Self { frame, points: local, codes, levels: vec![root], distinct }
     }
 
@@ -307,36 +285,14 @@ impl Octree {
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
         let index = KeyMap::from_keys(&keys);
-        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index, sub: Vec::new() });
+        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
     }
 
     /// Computes the moments of levels `0..=deepest`: `deepest` from the points, the others by
-    /// summing children (deeper levels get none), and the child offsets ([`Cells::sub`]) of levels
-    /// `sub_from..` (up to [`MAX_DEPTH`](morton::MAX_DEPTH) ` - 1`). Call once, after the last
+    /// summing children (deeper levels get none). Call once, after the last
     /// [`Octree::push_level`]; frees the codes.
-    pub(crate) fn finish(&mut self, deepest: u32, sub_from: u32) {
-        let codes = std::mem::take(&mut self.codes);
-        for cells in self.levels.iter_mut().skip(sub_from as usize) {
-            if cells.level >= CODE_BITS {
-                continue;
-            }
-            let shift = 3 * (CODE_BITS - cells.level - 1);
-            let starts = &cells.starts;
-            cells.sub = (0..cells.keys.len())
-                .into_par_iter()
-                .map(|i| {
-                    let run = &codes[starts[i] as usize..starts[i + 1] as usize];
-                    if run.len() > 255 {
-                        return NO_SUB;
-                    }
-                    (1..8u64).fold(0u64, |acc, o| {
-                        let at = run.partition_point(|&c| (c >> shift) & 7 < o);
-                        acc | (at as u64) << (8 * o)
-                    })
-                })
-                .collect();
-        }
-        drop(codes);
+    pub(crate) fn finish(&mut self, deepest: u32) {
+        self.codes = Vec::new();
         let deepest = (deepest as usize).min(self.levels.len() - 1);
         let pts = &self.points;
         let cells = &self.levels[deepest];
@@ -436,7 +392,7 @@ mod tests {
         for _ in 0..4 {
             o.push_level();
         }
-        o.finish(4, 3);
+        o.finish(4);
         o
     }
 
@@ -452,7 +408,6 @@ mod tests {
         assert!(cells.moments[gap].mean().is_none());
         assert!(cells.keys.windows(2).all(|w| w[0] < w[1]));
         assert_eq!(cells.starts.len(), cells.len() + 1);
-        assert_eq!(cells.sub.len(), cells.len());
         for (i, &k) in cells.keys.iter().enumerate() {
             assert_eq!(cells.find(k), Some(i));
         }
@@ -475,27 +430,12 @@ mod tests {
         for _ in 0..5 {
             o.push_level();
         }
-        o.finish(5, 2);
+        o.finish(5);
         for (j, cells) in o.levels.iter().enumerate() {
             assert_eq!(*cells.starts.last().unwrap() as usize, pts.len());
             assert!(cells.keys.windows(2).all(|w| w[0] < w[1]));
             let total: f64 = cells.moments.iter().map(|m| m.count).sum();
             assert_eq!(total as usize, pts.len(), "level {j}");
-            // Child offsets: every point lies in its child's box, on the levels that have them.
-            assert_eq!(cells.sub.len(), if j >= 2 { cells.len() } else { 0 }, "level {j}");
-            for (i, &sub) in cells.sub.iter().enumerate() {
-                assert_ne!(sub, NO_SUB);
-                let c = morton::decode(cells.keys[i]);
-                let half = cells.voxel() as f32 / 2.0;
-                let range = cells.range(i);
-                for (k, p) in o.points[range.clone()].iter().enumerate() {
-                    let child = (0..8).rev().find(|&c| ((sub >> (8 * c)) & 0xff) as usize <= k).unwrap();
-                    for a in 0..3 {
-                        let lo = (2 * c[a] + (child >> a & 1)) as f32 * half;
-                        assert!(p[a] >= lo - 1e-6 && p[a] <= lo + half + 1e-6, "level {j} voxel {i} point {k}");
-                    }
-                }
-            }
             // Every point lies in its voxel.
             let h = cells.voxel() as f32;
             for i in 0..cells.len() {
