@@ -1,5 +1,8 @@
 //! Boundary loops and faces per level of a scan's reconstruction (the holes of issue 3):
-//! `cargo run --release -p octowrap-recon --example loops -- <points file> <level>`.
+//! `cargo run --release -p octowrap-recon --example loops -- <points file> <level>` (default: the
+//! dragon to level 7). With `OW_HOLES=1`, every one-quad hole of the finest level is listed by its
+//! lattice corners and the faces around it; with `OW_AT=x,y,z` (a hole's first corner) also the
+//! point counts of the 5x5x5 voxels around it.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeMap;
