@@ -70,3 +70,21 @@ fn help_teaches_with_examples() {
     let h = text(&out.stdout);
     assert!(h.contains("Examples:") && h.contains("octowrap convert scan.laz scan.ply"), "{h}");
 }
+
+/// A missing input is reported once per command, naming the file and the system's reason, with
+/// the reason said once (not repeated by the error chain).
+#[test]
+fn a_missing_input_names_the_file_and_its_cause_once() {
+    for args in [
+        vec!["convert", "/nonexistent/in.ply", "/tmp/octowrap-never-written.ply"],
+        vec!["info", "/nonexistent/in.ply"],
+        vec!["export", "/nonexistent/in.ply", "-o", "/tmp/octowrap-never-written.glb"],
+        vec!["decimate", "/nonexistent/in.ply", "-o", "/tmp/octowrap-never-written.ply", "--ratio", "0.5"],
+    ] {
+        let out = common::octowrap(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = common::text(&out.stderr);
+        assert!(err.contains("/nonexistent/in.ply"), "{args:?}: {err}");
+        assert_eq!(err.matches("os error 2").count(), 1, "{args:?}: the cause once: {err}");
+    }
+}

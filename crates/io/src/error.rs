@@ -52,7 +52,11 @@ impl fmt::Display for Location {
 
 /// A read or write failure: the file, where in it, what kind, and a message saying what was
 /// expected and what was found.
-#[derive(Debug, thiserror::Error)]
+///
+/// Its `Display` says everything, the underlying error included, so [`std::error::Error::source`]
+/// returns nothing: a caller printing the whole chain (`anyhow`'s `{:#}`) would otherwise print
+/// the cause twice. The cause stays available in the `source` field.
+#[derive(Debug)]
 #[non_exhaustive]
 pub struct Error {
     /// The file name as the user gave it (`<stdin>` / `<stdout>` for the standard streams);
@@ -64,8 +68,7 @@ pub struct Error {
     pub location: Location,
     /// What was expected and what was found.
     pub message: String,
-    /// The underlying error, when there is one.
-    #[source]
+    /// The underlying error, when there is one (already part of the `Display`).
     pub source: Option<Box<dyn std::error::Error + Send + Sync + 'static>>,
 }
 
@@ -78,12 +81,14 @@ impl fmt::Display for Error {
             write!(f, "{}: ", self.location)?;
         }
         write!(f, "{}: {}", self.kind, self.message)?;
-        if let Some(s) = &self.source {
+        if let Some(s) = self.source.as_ref().map(ToString::to_string).filter(|s| *s != self.message) {
             write!(f, " ({s})")?;
         }
         Ok(())
     }
 }
+
+impl std::error::Error for Error {}
 
 impl Error {
     /// A new error of `kind` at `location`.
