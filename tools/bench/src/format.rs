@@ -235,7 +235,7 @@ fn points_to_mesh_rms(points: &[DVec3], mesh: &Mesh) -> f64 {
                             }
                             for &t in &cells[index([x, y, z])] {
                                 let t = &tris[t as usize];
-                                best = best.min(point_triangle_dist2(p, t[0], t[1], t[2]));
+                                best = best.min(octowrap_geom::point_triangle_squared(p, &[t[0], t[1], t[2]]));
                             }
                         }
                     }
@@ -249,41 +249,4 @@ fn points_to_mesh_rms(points: &[DVec3], mesh: &Mesh) -> f64 {
         })
         .collect();
     (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
-}
-
-/// Squared distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
-fn point_triangle_dist2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return ap.length_squared();
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return bp.length_squared();
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (p - (a + ab * v)).length_squared();
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return cp.length_squared();
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (p - (a + ac * w)).length_squared();
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (p - (b + (c - b) * w)).length_squared();
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    (p - (a + ab * v + ac * w)).length_squared()
 }
