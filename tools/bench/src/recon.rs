@@ -143,35 +143,9 @@ fn errors(points: &[DVec3], mesh: &Mesh) -> ((f64, f64), (f64, f64)) {
     (rms_max(&to_mesh), rms_max(&to_points))
 }
 
-/// Boundary loops of a mesh: boundary edges run one way only, and every boundary vertex of a
-/// manifold mesh starts exactly one of them.
+/// Boundary loops of a mesh, as the validator counts them.
 fn boundary_loops(mesh: &Mesh) -> usize {
-    let mut directed = std::collections::HashSet::new();
-    for f in mesh.faces.iter() {
-        for k in 0..f.len() {
-            directed.insert((f[k], f[(k + 1) % f.len()]));
-        }
-    }
-    let next: std::collections::HashMap<u32, u32> =
-        directed.iter().filter(|&&(a, b)| !directed.contains(&(b, a))).map(|&(a, b)| (a, b)).collect();
-    let mut seen = std::collections::HashSet::new();
-    let mut loops = 0;
-    let mut starts: Vec<u32> = next.keys().copied().collect();
-    starts.sort_unstable();
-    for start in starts {
-        if seen.contains(&start) {
-            continue;
-        }
-        loops += 1;
-        let mut v = start;
-        while seen.insert(v) {
-            match next.get(&v) {
-                Some(&w) => v = w,
-                None => break,
-            }
-        }
-    }
-    loops
+    octowrap_validate::validate_mesh(mesh, &octowrap_validate::Options::default()).counts.boundary_loops
 }
 
 /// User plus system CPU seconds of this process so far (`/proc/self/stat`, 100 ticks a second).
