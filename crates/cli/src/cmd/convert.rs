@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::bail;
 use octowrap_io::{Format, WriteOptions};
 
-use super::input::{InputArgs, parse_format};
+use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
 
 /// Convert a point cloud or mesh between formats.
@@ -37,12 +37,8 @@ pub struct Args {
     pub input: PathBuf,
     /// Output file (`-` for standard output, with `--to`).
     pub output: PathBuf,
-    /// Output format, when OUTPUT's extension does not say: ply, obj, off, stl, xyz.
-    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
-    pub to: Option<Format>,
-    /// Write text instead of binary (PLY, STL).
-    #[arg(long)]
-    pub ascii: bool,
+    #[command(flatten)]
+    pub output_format: OutputFormatArgs,
     /// Merge vertices whose positions are exactly equal before writing. STL stores every triangle
     /// corner on its own; welding turns such a triangle soup into an indexed mesh.
     #[arg(long)]
@@ -59,7 +55,7 @@ pub struct Args {
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mrq_in = mrq::is_mrq(&args.input);
-    if args.to.is_none() && mrq::has_mrq_extension(&args.output) {
+    if args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output) {
         let h = if mrq_in {
             mrq::read(&args.input, None)?.hierarchy
         } else {
@@ -68,7 +64,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         mrq::write(&args.output, &h, &args.mrq.options(true, &args.input))?;
         return Ok(ExitCode::SUCCESS);
     }
-    let to = args.to.or_else(|| Format::from_path(&args.output));
+    let to = args.output_format.to.or_else(|| Format::from_path(&args.output));
     let Some(to) = to else {
         bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
     };
@@ -90,7 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     }
     let mut opts = WriteOptions::default();
     opts.format = Some(to);
-    opts.ascii = args.ascii;
+    opts.ascii = args.output_format.ascii;
     octowrap_io::write_path(&args.output, &mesh, &opts)?;
     Ok(ExitCode::SUCCESS)
 }

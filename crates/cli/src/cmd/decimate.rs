@@ -11,7 +11,7 @@ use octowrap_io::{Format, WriteOptions};
 use octowrap_mesh::{Hierarchy, Mesh};
 use serde::Serialize;
 
-use super::input::{InputArgs, parse_format};
+use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
 use crate::progress;
 
@@ -94,12 +94,8 @@ pub struct Args {
     /// Print the report as JSON on standard output.
     #[arg(long)]
     pub json: bool,
-    /// Output format, when OUT's extension does not say: ply, obj, off, stl.
-    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
-    pub to: Option<Format>,
-    /// Write text instead of binary (PLY, STL).
-    #[arg(long)]
-    pub ascii: bool,
+    #[command(flatten)]
+    pub output_format: OutputFormatArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
@@ -146,8 +142,8 @@ struct Report {
 /// Runs the command.
 #[allow(clippy::print_stdout)]
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
-    let mrq_out = args.to.is_none() && mrq::has_mrq_extension(&args.output);
-    let to = args.to.or_else(|| Format::from_path(&args.output));
+    let mrq_out = args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output);
+    let to = args.output_format.to.or_else(|| Format::from_path(&args.output));
     if !mrq_out {
         let Some(to) = to else {
             bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
@@ -268,7 +264,7 @@ fn write(args: &Args, mrq_out: bool, to: Option<Format>, mesh: &Mesh) -> anyhow:
     }
     let mut opts = WriteOptions::default();
     opts.format = to;
-    opts.ascii = args.ascii;
+    opts.ascii = args.output_format.ascii;
     octowrap_io::write_path(&args.output, mesh, &opts).with_context(|| format!("writing {}", args.output.display()))
 }
 

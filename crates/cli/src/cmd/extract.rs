@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::bail;
 use octowrap_io::{Format, WriteOptions};
 
-use super::input::parse_format;
+use super::input::OutputFormatArgs;
 use super::mrq;
 
 /// Write one level of an MRQ hierarchy as a mesh (PLY, OBJ, OFF, STL or XYZ).
@@ -30,17 +30,13 @@ pub struct Args {
     /// Output mesh file (`-` for standard output, with `--to`).
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
-    /// Output format, when OUT's extension does not say: ply, obj, off, stl, xyz.
-    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
-    pub to: Option<Format>,
-    /// Write text instead of binary (PLY, STL).
-    #[arg(long)]
-    pub ascii: bool,
+    #[command(flatten)]
+    pub output_format: OutputFormatArgs,
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
-    let Some(to) = args.to.or_else(|| Format::from_path(&args.output)) else {
+    let Some(to) = args.output_format.to.or_else(|| Format::from_path(&args.output)) else {
         bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
     };
     if !to.writable() {
@@ -49,7 +45,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mesh = mrq::read_level(&args.input, args.level)?;
     let mut opts = WriteOptions::default();
     opts.format = Some(to);
-    opts.ascii = args.ascii;
+    opts.ascii = args.output_format.ascii;
     octowrap_io::write_path(&args.output, &mesh, &opts)?;
     Ok(ExitCode::SUCCESS)
 }

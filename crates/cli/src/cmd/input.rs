@@ -53,6 +53,17 @@ impl InputArgs {
     }
 }
 
+/// How to write a mesh output: shared by every subcommand that writes one.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct OutputFormatArgs {
+    /// Output format, when the output's extension does not say: ply, obj, off, stl, xyz.
+    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
+    pub to: Option<Format>,
+    /// Write text instead of binary (PLY, STL).
+    #[arg(long)]
+    pub ascii: bool,
+}
+
 /// Parses a format name.
 pub fn parse_format(s: &str) -> anyhow::Result<Format> {
     Format::from_extension(s).with_context(|| {

@@ -8,7 +8,7 @@ use anyhow::{Context, bail};
 use octowrap_io::{Format, WriteOptions};
 use octowrap_recon::{LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
 
-use super::input::{InputArgs, parse_format};
+use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
 use crate::progress;
 
@@ -77,12 +77,8 @@ pub struct Args {
     /// Print the per-level, per-stage time table (like the paper's Table 2) on standard error.
     #[arg(long)]
     pub timings: bool,
-    /// Output format, when OUT's extension does not say: ply, obj, off, stl.
-    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
-    pub to: Option<Format>,
-    /// Write text instead of binary (PLY, STL).
-    #[arg(long)]
-    pub ascii: bool,
+    #[command(flatten)]
+    pub output_format: OutputFormatArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
     #[command(flatten)]
@@ -104,7 +100,7 @@ fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let is_mrq = mrq::has_mrq_extension(&args.output);
-    let to = if is_mrq { None } else { args.to.or_else(|| Format::from_path(&args.output)) };
+    let to = if is_mrq { None } else { args.output_format.to.or_else(|| Format::from_path(&args.output)) };
     if !is_mrq {
         let Some(to) = to else {
             bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
@@ -172,7 +168,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         };
         let mut w = WriteOptions::default();
         w.format = to;
-        w.ascii = args.ascii;
+        w.ascii = args.output_format.ascii;
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
     Ok(ExitCode::SUCCESS)
