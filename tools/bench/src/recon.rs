@@ -251,46 +251,8 @@ fn mapping_effect(name: &str, points: &[DVec3], max_level: u32) {
 
 /// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
 fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
-    let p = &mesh.vertices.positions;
-    let tris: Vec<[DVec3; 3]> = mesh
-        .faces
-        .iter()
-        .filter(|f| f.len() >= 3)
-        .map(|f| [p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]])
-        .collect();
-    let mut cum = Vec::with_capacity(tris.len());
-    let mut total = 0.0;
-    for t in &tris {
-        total += (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
-        cum.push(total);
-    }
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let mut s = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
-            let mut next = || {
-                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-                let mut z = s;
-                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-            };
-            let k = cum.partition_point(|&c| c < next() * total).min(tris.len() - 1);
-            let (mut u, mut v) = (next(), next());
-            if u + v > 1.0 {
-                u = 1.0 - u;
-                v = 1.0 - v;
-            }
-            let t = &tris[k];
-            let g = || {
-                let (a, b) = (next().max(1e-300), next());
-                (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-            };
-            let mut g = g;
-            let noise = DVec3::new(g(), g(), g()) * sigma;
-            t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v + noise
-        })
-        .collect()
+    let sampler = octowrap_mesh::shapes::SurfaceSampler::new(mesh);
+    (0..n as u64).into_par_iter().map(|i| sampler.point(i, sigma)).collect()
 }
 
 /// Per-level, per-stage seconds as a markdown table.
