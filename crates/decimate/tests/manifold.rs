@@ -93,24 +93,10 @@ fn cube_sphere(n: u32) -> Mesh {
 
 /// A wavy height field over an `n x n` grid, triangles: one boundary loop.
 fn terrain(n: u32) -> Mesh {
-    let pos = (0..=n)
-        .flat_map(|y| (0..=n).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (u, v) = (f64::from(x) / f64::from(n), f64::from(y) / f64::from(n));
-            DVec3::new(u, v, 0.1 * (6.0 * u).sin() * (3.0 * v).cos())
-        })
-        .collect();
-    let id = |x: u32, y: u32| y * (n + 1) + x;
-    let mut tris = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            tris.push([id(x, y), id(x + 1, y), id(x + 1, y + 1)]);
-            tris.push([id(x, y), id(x + 1, y + 1), id(x, y + 1)]);
-        }
-    }
-    let mut m = Mesh::from_positions(pos);
-    m.faces = FaceList::from_triangles(&tris);
-    m
+    // Grid point (i, j) at x = j / n, y = i / n.
+    octowrap_mesh::shapes::triangulated_grid(n, n, [false, false], |v, u| {
+        DVec3::new(u, v, 0.1 * (6.0 * u).sin() * (3.0 * v).cos())
+    })
 }
 
 #[test]
