@@ -279,9 +279,8 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
             }
         }
     });
-    let non_finite: Vec<u32> = (0..n as u32).filter(|&v| !p[v as usize].is_finite()).collect();
     let unused: Vec<u32> = (0..n as u32).filter(|&v| ring_end[v as usize] == 0).collect();
-    let duplicate_vertices = duplicate_vertices(p);
+    let (non_finite, duplicate_vertices) = vertex_checks(p);
     ElementChecks { short, range, degenerate: degen, zero_area: zero, non_finite, unused, duplicate_vertices }.report(
         n,
         &mut counts,
@@ -467,6 +466,23 @@ fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
     if k > LANES {
         return false;
     }
+    if closed_fan(r) {
+        // An interior vertex: every neighbour is the next vertex of one corner and the previous
+        // vertex of another, so each edge has two sides of opposite directions.
+        let mut interior = 0;
+        for &[_, x] in r {
+            if x > v {
+                interior += 1;
+                walk.comp.union(v as usize, x as usize);
+            }
+        }
+        walk.tallies.edges[v as usize] += interior;
+        walk.found.edge_count += interior as usize;
+        if k == 2 {
+            walk.duplicate_candidates.push(v);
+        }
+        return true;
+    }
     let mut across = [NONE; LANES];
     let (mut reached, mut open_in) = (0u32, NONE);
     for (i, e) in r.iter().enumerate() {
@@ -533,6 +549,26 @@ fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
         walk.duplicate_candidates.push(v);
     }
     true
+}
+
+/// Whether stepping from corner 0 to the first corner across its incoming edge comes back to
+/// corner 0 after exactly `r.len()` steps, and never earlier: the common case of an interior
+/// vertex, told with one search per corner. The steps then visit every corner once (a corner
+/// reached twice would repeat the steps after it and never come back to corner 0), so the step
+/// is a one-to-one map of the corners onto themselves. Since it goes to the *first* matching
+/// corner, no two corners share a next vertex (the later one could not be reached) and, being
+/// one-to-one, no two share a previous vertex: one fan, each edge with two opposite sides.
+fn closed_fan(r: &[RingEntry]) -> bool {
+    let mut i = 0;
+    for step in 1..=r.len() {
+        let prev = r[i][0];
+        match r.iter().position(|o| o[1] == prev) {
+            Some(0) => return step == r.len(),
+            Some(j) => i = j,
+            None => return false,
+        }
+    }
+    false
 }
 
 /// Decides any vertex: sorts the edge sides of the ring by neighbour, records the edges at their
@@ -672,11 +708,13 @@ pub(crate) fn zero_area(p: &[DVec3], face: &[u32]) -> bool {
     area.length().partial_cmp(&(size2 * 1e-12)) != Some(std::cmp::Ordering::Greater)
 }
 
-/// Vertices at the bit-exact position (`-0.0 = 0.0`) of an earlier vertex, ascending; NaN
-/// positions never match. A first pass marks the hash slots that more than one vertex falls in
-/// (two bit sets of about eight bits per vertex, so they stay in cache); only the vertices in
-/// such slots, a small fraction, go through the exact hash table.
-pub(crate) fn duplicate_vertices(p: &[DVec3]) -> Vec<u32> {
+/// The vertices with a NaN or infinite coordinate, and those at the bit-exact position
+/// (`-0.0 = 0.0`) of an earlier vertex (NaN positions never match), each ascending, from one pass
+/// over the positions and a second over the few that may repeat. The first pass marks the hash
+/// slots that more than one vertex falls in (two bit sets of about eight bits per vertex, so
+/// they stay in cache); the second collects the vertices in such slots, a small fraction, with
+/// their hashes, and only those go through an exact hash table sized for them at once.
+pub(crate) fn vertex_checks(p: &[DVec3]) -> (Vec<u32>, Vec<u32>) {
     let key = |v: DVec3| [v.x + 0.0, v.y + 0.0, v.z + 0.0].map(f64::to_bits);
     // A multiply-xorshift mix: every input bit reaches the high bits and, by the shift, the low
     // bits the table uses.
@@ -687,40 +725,47 @@ pub(crate) fn duplicate_vertices(p: &[DVec3]) -> Vec<u32> {
     let bits = (p.len() * 8).next_power_of_two().max(64);
     let slot = |h: u64| (h as usize & (bits - 1), 1u64 << (h & 63));
     let (mut seen, mut shared) = (vec![0u64; bits / 64], vec![0u64; bits / 64]);
-    let mut any_shared = false;
-    for v in p {
-        if !v.is_nan() {
-            let (i, b) = slot(hash(key(*v)));
-            let again = seen[i >> 6] & b;
-            any_shared |= again != 0;
-            shared[i >> 6] |= again;
-            seen[i >> 6] |= b;
+    let (mut any_shared, mut non_finite) = (false, Vec::new());
+    for (i, v) in p.iter().enumerate() {
+        if !v.is_finite() {
+            non_finite.push(i as u32);
+            if v.is_nan() {
+                continue;
+            }
         }
+        let (s, b) = slot(hash(key(*v)));
+        let again = seen[s >> 6] & b;
+        any_shared |= again != 0;
+        shared[s >> 6] |= again;
+        seen[s >> 6] |= b;
     }
     drop(seen);
     let mut dups = Vec::new();
     if !any_shared {
-        return dups;
+        return (non_finite, dups);
     }
-    let mut table = hashbrown::HashTable::<u32>::new();
+    let mut candidates: Vec<(u64, u32)> = Vec::new();
     for (i, v) in p.iter().enumerate() {
-        if v.is_nan() {
-            continue;
-        }
-        let k = key(*v);
-        let h = hash(k);
-        let (s, b) = slot(h);
-        if shared[s >> 6] & b == 0 {
-            continue;
-        }
-        match table.entry(h, |&j| key(p[j as usize]) == k, |&j| hash(key(p[j as usize]))) {
-            hashbrown::hash_table::Entry::Occupied(_) => dups.push(i as u32),
-            hashbrown::hash_table::Entry::Vacant(e) => {
-                e.insert(i as u32);
+        if !v.is_nan() {
+            let h = hash(key(*v));
+            let (s, b) = slot(h);
+            if shared[s >> 6] & b != 0 {
+                candidates.push((h, i as u32));
             }
         }
     }
-    dups
+    drop(shared);
+    let mut table = hashbrown::HashTable::<(u64, u32)>::with_capacity(candidates.len());
+    for (h, i) in candidates {
+        let k = key(p[i as usize]);
+        match table.entry(h, |&(g, j)| g == h && key(p[j as usize]) == k, |&(g, _)| g) {
+            hashbrown::hash_table::Entry::Occupied(_) => dups.push(i),
+            hashbrown::hash_table::Entry::Vacant(e) => {
+                e.insert((h, i));
+            }
+        }
+    }
+    (non_finite, dups)
 }
 
 /// The components, largest first. With `rings` (each vertex's ring offsets) and all faces of
@@ -818,9 +863,11 @@ mod tests {
         (4u32..14, prop::collection::vec((3usize..6, any::<u64>()), 0..40), any::<u64>()).prop_map(|(n, fs, seed)| {
             let mut rng = octowrap_geom::SplitMix64::new(seed);
             let pos: Vec<DVec3> = (0..n)
-                .map(|_| match rng.next_u64() % 12 {
+                .map(|_| match rng.next_u64() % 14 {
                     0 => DVec3::ZERO,
                     1 => DVec3::new(f64::NAN, 0.0, 0.0),
+                    2 => DVec3::new(-0.0, 0.0, -0.0),
+                    3 => DVec3::new(f64::INFINITY, 1.0, 0.0),
                     _ => DVec3::new(
                         (rng.next_u64() % 5) as f64,
                         (rng.next_u64() % 5) as f64,
@@ -878,6 +925,38 @@ mod tests {
             assert_eq!(r.properties.closed, !open);
             assert_eq!(r.counts.boundary_loops, if open { 2 } else { 0 });
         }
+    }
+
+    /// The vertex checks at a size where the bit sets pass on a fraction of the vertices, against
+    /// a plain ordered map: repeats near and far from their first copy, signed zeros, NaN and
+    /// infinities.
+    #[test]
+    fn vertex_checks_agree_with_a_plain_map() {
+        let mut rng = octowrap_geom::SplitMix64::new(11);
+        let mut p: Vec<DVec3> =
+            (0..200_000).map(|_| DVec3::new(rng.f64(), rng.f64(), (rng.next_u64() % 1000) as f64)).collect();
+        for i in (0..p.len()).step_by(97) {
+            let from = rng.below(p.len());
+            p[i] = p[from];
+        }
+        p[5] = DVec3::new(0.0, -0.0, 0.0);
+        p[6] = DVec3::new(-0.0, 0.0, 0.0);
+        p[7] = DVec3::new(f64::NAN, 0.0, 0.0);
+        p[8] = DVec3::new(f64::NAN, 0.0, 0.0);
+        p[9] = DVec3::new(f64::NEG_INFINITY, 0.0, 0.0);
+        p[10] = DVec3::new(f64::NEG_INFINITY, 0.0, 0.0);
+        let (non_finite, dups) = vertex_checks(&p);
+        let mut first = std::collections::BTreeMap::new();
+        let plain: Vec<u32> = (0..p.len() as u32)
+            .filter(|&v| {
+                let q = p[v as usize];
+                !q.is_nan() && first.insert([q.x + 0.0, q.y + 0.0, q.z + 0.0].map(f64::to_bits), v).is_some()
+            })
+            .collect();
+        assert!(plain.len() > 2000, "the case has repeats: {}", plain.len());
+        assert!(plain.contains(&6) && plain.contains(&10) && !plain.contains(&8));
+        assert_eq!(dups, plain);
+        assert_eq!(non_finite, vec![7, 8, 9, 10]);
     }
 
     #[test]

@@ -8,9 +8,7 @@
 
 use octowrap_mesh::Mesh;
 
-use crate::check::{
-    Collector, EdgeTally, ElementChecks, VertexTallies, components, duplicate_vertices, finish, has_repeat, zero_area,
-};
+use crate::check::{Collector, EdgeTally, ElementChecks, VertexTallies, components, finish, has_repeat, zero_area};
 use crate::report::{Code, Counts, Element, MeshReport};
 use crate::{Options, dsu::Dsu};
 
@@ -65,7 +63,14 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         }
     }
     let unused: Vec<u32> = (0..n as u32).filter(|&v| !used[v as usize]).collect();
-    let duplicate_vertices = duplicate_vertices(&mesh.vertices.positions);
+    // The plain way: the first vertex at each exact position (`-0.0 = 0.0`, NaN never equal).
+    let mut first = std::collections::BTreeMap::new();
+    let duplicate_vertices: Vec<u32> = (0..n as u32)
+        .filter(|&v| {
+            let q = mesh.vertices.positions[v as usize];
+            !q.is_nan() && first.insert([q.x + 0.0, q.y + 0.0, q.z + 0.0].map(f64::to_bits), v).is_some()
+        })
+        .collect();
     let zero_area: Vec<u32> = (0..faces.len())
         .filter(|&f| usable[f] && zero_area(&mesh.vertices.positions, faces.face(f)))
         .map(|f| f as u32)
