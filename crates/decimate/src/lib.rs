@@ -81,6 +81,7 @@ mod collapse;
 mod cut;
 mod decimate;
 mod error;
+mod hausdorff;
 pub mod metrics;
 mod quadric;
 mod quads;

@@ -42,6 +42,8 @@ use octowrap_mesh::Mesh;
 use rayon::prelude::*;
 use serde::Serialize;
 
+pub use crate::hausdorff::Certified;
+
 /// How densely to sample (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
@@ -99,6 +101,27 @@ pub fn distance(a: &Mesh, b: &Mesh, sampling: &Sampling) -> Distance {
     Distance { hausdorff: a_to_b.max.max(b_to_a.max), rms: a_to_b.rms.max(b_to_a.rms), a_to_b, b_to_a }
 }
 
+/// The certified symmetric Hausdorff distance between `a` and `b` (their triangles, as
+/// [`Mesh::triangles`] makes them; faces with an index out of range skipped): `lower ≤ true distance ≤ upper`, with
+/// `upper ≤ lower · 1.01 + 1e-9 · diagonal` (the diagonal of both meshes' bounding box) unless
+/// [`Certified::converged`] is false. Branch and bound over subdivided triangles with exact
+/// point-triangle distances: no point of either surface is farther than `upper` from the other,
+/// between samples included. Deterministic whatever the thread count. The search and its
+/// bounds: `hausdorff.rs`.
+pub fn certified_hausdorff(a: &Mesh, b: &Mesh) -> Certified {
+    let (pa, pb) = (&a.vertices.positions, &b.vertices.positions);
+    // Faces with an index out of range are skipped.
+    let (mut ta, mut tb) = (a.triangles(), b.triangles());
+    ta.retain(|t| t.iter().all(|&v| (v as usize) < pa.len()));
+    tb.retain(|t| t.iter().all(|&v| (v as usize) < pb.len()));
+    let mut bounds = Aabb::from_points(ta.iter().flatten().map(|&v| &pa[v as usize]));
+    for &v in tb.iter().flatten() {
+        bounds.grow(pb[v as usize]);
+    }
+    let diagonal = if bounds.is_empty() { 0.0 } else { bounds.diagonal() };
+    crate::hausdorff::symmetric(pa, &ta, pb, &tb, crate::hausdorff::tolerance(diagonal))
+}
+
 /// The one-sided sampled distance from `from` to `to`.
 pub fn one_sided(from: &Mesh, to: &Mesh, sampling: &Sampling) -> OneSided {
     let t = Triangles::new(to);
@@ -138,6 +161,11 @@ impl Triangles {
         }
         let used = p.iter().zip(&seen).filter(|(_, s)| **s).map(|(q, _)| *q).collect();
         Self { corners: tris.iter().map(|t| t.map(at)).collect(), used }
+    }
+
+    /// The triangles `tris` over `pos` (indices must be in range).
+    pub(crate) fn from_indexed(pos: &[DVec3], tris: &[[u32; 3]]) -> Self {
+        Self { corners: tris.iter().map(|t| t.map(|i| pos[i as usize])).collect(), used: Vec::new() }
     }
 
     #[cfg(test)]
@@ -232,24 +260,44 @@ impl<'a> Bvh<'a> {
 
     /// Squared distance from `p` to the nearest triangle (infinite when there are none).
     pub(crate) fn nearest_squared(&self, p: DVec3) -> f64 {
+        self.nearest(p, None).0
+    }
+
+    /// The squared distance from `p` to the nearest triangle and that triangle's index (infinite
+    /// and `u32::MAX` when there are none). `hint`, a triangle likely to be near, only speeds the
+    /// search up; ties go to the triangle met first, so the answer is deterministic.
+    pub(crate) fn nearest(&self, p: DVec3, hint: Option<u32>) -> (f64, u32) {
         if self.order.is_empty() {
-            return f64::INFINITY;
+            return (f64::INFINITY, u32::MAX);
         }
         let box2 = |b: &Aabb| {
             let d = (b.min - p).max(p - b.max).max(DVec3::ZERO);
             d.length_squared()
         };
-        let mut best = f64::INFINITY;
-        let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
-        stack.push((0, box2(&self.nodes[0].bounds)));
-        while let Some((i, d)) = stack.pop() {
+        let (mut best, mut best_tri) = match hint {
+            Some(t) if (t as usize) < self.tris.corners.len() => {
+                (point_triangle_squared(p, &self.tris.corners[t as usize]), t)
+            }
+            _ => (f64::INFINITY, u32::MAX),
+        };
+        // The tree is at most about log2(n) deep and each step pops one node and pushes two.
+        let mut stack: [(u32, f64); 96] = [(0, 0.0); 96];
+        stack[0] = (0, box2(&self.nodes[0].bounds));
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let (i, d) = stack[top];
             if d >= best {
                 continue;
             }
             let n = &self.nodes[i as usize];
             if n.count > 0 {
                 for &t in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    best = best.min(point_triangle_squared(p, &self.tris.corners[t as usize]));
+                    let e = point_triangle_squared(p, &self.tris.corners[t as usize]);
+                    if e < best {
+                        best = e;
+                        best_tri = t;
+                    }
                 }
                 continue;
             }
@@ -257,14 +305,15 @@ impl<'a> Bvh<'a> {
             let (dl, dr) = (box2(&self.nodes[l as usize].bounds), box2(&self.nodes[r as usize].bounds));
             // Visit the nearer child first: push it last.
             if dl <= dr {
-                stack.push((r, dr));
-                stack.push((l, dl));
+                stack[top] = (r, dr);
+                stack[top + 1] = (l, dl);
             } else {
-                stack.push((l, dl));
-                stack.push((r, dr));
+                stack[top] = (l, dl);
+                stack[top + 1] = (r, dr);
             }
+            top += 2;
         }
-        best
+        (best, best_tri)
     }
 }
 
