@@ -6,8 +6,9 @@ use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, NONE,
-    PREDICTOR_LINES, Parent, STREAM_COUNT, STREAM_NAMES, Topo, geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode,
+    NO_PARENT, NO_POS, NONE, PREDICTOR_LINES, Parent, STREAM_COUNT, STREAM_NAMES, Topo, geometry_pass, number_edges,
+    rotated, s,
 };
 
 /// One decoded level on plain arrays.
@@ -57,6 +58,12 @@ pub struct GridInfo {
     pub version: u16,
 }
 
+/// Buffers reused from level to level (and file to file) by [`decode_level`].
+#[derive(Default)]
+pub struct Scratch {
+    geometry: GeometryScratch,
+}
+
 /// Decodes level `k`'s decompressed payload.
 #[allow(clippy::too_many_lines)] // one pass through spec §4-§5, in the spec's order
 pub fn decode_level(
@@ -65,6 +72,7 @@ pub fn decode_level(
     entry: &LevelEntry,
     parent: Option<&PlainLevel>,
     grid: GridInfo,
+    scratch: &mut Scratch,
 ) -> Result<PlainLevel, Error> {
     let place = Where::Payload(k);
     let mut head = Reader::new(payload, 0, place, "level block header");
@@ -446,10 +454,23 @@ pub fn decode_level(
             &pos,
             &parent_quads,
             nv,
+            scratch,
         );
     }
     let pos = vec![NO_POS; nc];
-    finish(k, (mode, predictor, lines, line_shift), has_lattice, grid, &mut st, out, None, &pos, &parent_quads, nv)
+    finish(
+        k,
+        (mode, predictor, lines, line_shift),
+        has_lattice,
+        grid,
+        &mut st,
+        out,
+        None,
+        &pos,
+        &parent_quads,
+        nv,
+        scratch,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -464,6 +485,7 @@ fn finish(
     pos: &[u8],
     parent_quads: &[([u32; 4], u8)],
     nv: usize,
+    scratch: &mut Scratch,
 ) -> Result<PlainLevel, Error> {
     let nf = out.parents.len();
     if mode != Mode::Lattice && has_lattice {
@@ -534,33 +556,40 @@ fn finish(
         let invalid =
             |reason: String| Error::Invalid { place: Where::Payload(k), offset: geo_off, what: "geometry", reason };
         let (mut next_line, mut next_other) = (0usize, 0usize);
-        geometry_pass(&topo, pp.as_ref(), &mut q, |v, pr| {
-            if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
-                let Some(line) = pr.line else {
-                    return Err(invalid(format!("vertex {v} is flagged as a line vertex but has no line")));
-                };
-                let j = pr.param + unzigzag(params.as_ref().expect("lines").get(next_line));
-                next_line += 1;
-                if j.abs() > LINE_PARAM_LIMIT {
-                    return Err(invalid(format!("vertex {v} has line parameter {j}, beyond 2^30")));
+        geometry_pass(
+            &topo,
+            pp.as_ref(),
+            &mut q,
+            &mut scratch.geometry,
+            #[inline(always)]
+            |v, pr| {
+                if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
+                    let Some(line) = pr.line else {
+                        return Err(invalid(format!("vertex {v} is flagged as a line vertex but has no line")));
+                    };
+                    let j = pr.param + unzigzag(params.as_ref().expect("lines").get(next_line));
+                    next_line += 1;
+                    if j.abs() > LINE_PARAM_LIMIT {
+                        return Err(invalid(format!("vertex {v} has line parameter {j}, beyond 2^30")));
+                    }
+                    let out = line.point(j);
+                    if out.iter().any(|x| x.abs() > GRID_LIMIT) {
+                        return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
+                    }
+                    return Ok((out, Some(j)));
                 }
-                let out = line.point(j);
-                if out.iter().any(|x| x.abs() > GRID_LIMIT) {
-                    return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
+                let i = if lines { next_other } else { v };
+                next_other += 1;
+                let mut out = [0i64; 3];
+                for a in 0..3 {
+                    out[a] = pr.point[a] + unzigzag(planes[a].get(i));
+                    if out[a].abs() > GRID_LIMIT {
+                        return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
+                    }
                 }
-                return Ok((out, Some(j)));
-            }
-            let i = if lines { next_other } else { v };
-            next_other += 1;
-            let mut out = [0i64; 3];
-            for a in 0..3 {
-                out[a] = pr.point[a] + unzigzag(planes[a].get(i));
-                if out[a].abs() > GRID_LIMIT {
-                    return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
-                }
-            }
-            Ok((out, None))
-        })?;
+                Ok((out, None))
+            },
+        )?;
         out.q = q;
     }
     for r in st.iter() {

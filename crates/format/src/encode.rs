@@ -7,8 +7,8 @@ use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent, STREAM_COUNT, Topo,
-    best_rotation, geometry_pass, number_edges, rotated, s,
+    BLOCK_FLAG_LATTICE, GeometryScratch, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent,
+    STREAM_COUNT, Topo, best_rotation, geometry_pass, number_edges, rotated, s,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
@@ -487,7 +487,7 @@ fn geometry(
     let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
     let mut q = vec![[0i64; 3]; nv];
     let mut order = Vec::with_capacity(if lines { 0 } else { nv });
-    let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, |v, pr| {
+    let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, &mut GeometryScratch::default(), |v, pr| {
         let t = target[v];
         if let Some(j) = pr.line.and_then(|l| l.param(t)) {
             flags[v / 8] |= 1 << (v % 8);

@@ -283,11 +283,17 @@ impl Line {
     /// apart along the largest axis (`shift <= MAX_LINE_SHIFT`).
     #[inline]
     pub fn new(base: [i64; 3], n: [f64; 3], shift: u32) -> Self {
+        Self { base, u: Self::direction(n, shift) }
+    }
+
+    /// The direction `u` of spec §6.6 for normal `n` and spacing exponent `shift`.
+    #[inline]
+    pub fn direction(n: [f64; 3], shift: u32) -> [f64; 3] {
         let m = n[0].abs().max(n[1].abs()).max(n[2].abs());
         let u = if m > 0.0 { [n[0] / m, n[1] / m, n[2] / m] } else { [0.0, 0.0, 1.0] };
         // Scaling by a power of two is exact.
         let scale = f64::from(1u32 << shift.min(MAX_LINE_SHIFT));
-        Self { base, u: [u[0] * scale, u[1] * scale, u[2] * scale] }
+        [u[0] * scale, u[1] * scale, u[2] * scale]
     }
 
     /// The grid point of parameter `j` (`|j| <= LINE_PARAM_LIMIT`), saturating.
@@ -364,6 +370,50 @@ fn round_away(x: f64) -> i64 {
     }
 }
 
+/// Reusable buffers of [`geometry_pass`]: a decoder keeps one across its levels, so that big
+/// arrays are not allocated (and their pages faulted in) once per level.
+#[derive(Default)]
+pub struct GeometryScratch {
+    /// Per vertex: its context corner (§6.2) or [`NONE`].
+    ctx: Vec<u32>,
+    /// Per vertex with a context: the face of the context corner.
+    ctx_face: Vec<u32>,
+    /// Per vertex: the end of its incident corners (after the fill pass).
+    end: Vec<u32>,
+    /// Previous and next vertex of every incident corner, grouped by vertex.
+    nbr: Vec<u32>,
+    /// Per vertex: `[B_x, B_y, B_z, 1, J, 1 if line vertex, 0, 0]` once decoded in pass A.
+    bias: Vec<[i32; 8]>,
+    /// Per parent face: its normal and line direction (lines, or lattice predictor 0).
+    faces: Vec<FaceNormal>,
+}
+
+/// What every vertex of one parent face shares in pass A: the face's normal `nf` (§6.3 or §6.6),
+/// `4 nn` of §6.3, and the line direction `u` of §6.6.
+#[derive(Clone, Copy, Default)]
+struct FaceNormal {
+    nf: [f64; 3],
+    nn4: f64,
+    u: [f64; 3],
+}
+
+impl FaceNormal {
+    #[inline]
+    fn new(n: [f64; 3], shift: u32) -> Self {
+        let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        Self { nf: n, nn4: 4.0 * nn, u: Line::direction(n, shift) }
+    }
+}
+
+/// Resizes `v` to `n` elements without rewriting the ones it holds (for buffers that the caller
+/// overwrites entirely).
+fn at_least<T: Copy + Default>(v: &mut Vec<T>, n: usize) -> &mut [T] {
+    if v.len() < n {
+        v.resize(n, T::default());
+    }
+    &mut v[..n]
+}
+
 #[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.6 in one place, so both directions share it
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
 /// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates and, for a
@@ -371,56 +421,67 @@ fn round_away(x: f64) -> i64 {
 /// encoder records the residual and returns the target).
 ///
 /// Flat arrays only: per vertex its context corner and face, and its neighbours (previous and
-/// next corner of every incident corner, in corner order) as one CSR list built by counting.
+/// next corner of every incident corner, in corner order) as one CSR list built by counting; per
+/// parent face its normal and line direction, computed once. `step` must return grid
+/// coordinates within [`GRID_LIMIT`] and line parameters within [`LINE_PARAM_LIMIT`].
 pub fn geometry_pass<E>(
     topo: &Topo<'_>,
     parent: Option<&Parent<'_>>,
     q: &mut [[i64; 3]],
+    scratch: &mut GeometryScratch,
     mut step: impl FnMut(usize, &Prediction) -> Result<([i64; 3], Option<i64>), E>,
 ) -> Result<(), E> {
     let nv = q.len();
     let nf = topo.offsets.len() - 1;
+    let nc = topo.indices.len();
     let indices = topo.indices;
     let offsets = topo.offsets;
-    // Context (§6.2): the first predicted, non-exception subface corner of every vertex, and its face.
-    let mut ctx = vec![NONE; nv];
-    let mut ctx_face = vec![0u32; if parent.is_some() { nv } else { 0 }];
+    let GeometryScratch { ctx, ctx_face, end, nbr, bias, faces } = scratch;
+    // Context (§6.2): the first predicted, non-exception subface corner of every vertex, and its
+    // face; in the same pass, every vertex's corner count.
+    ctx.clear();
+    ctx.resize(nv, NONE);
+    let ctx_face = at_least(ctx_face, nv);
+    end.clear();
+    end.resize(nv + 1, 0);
     let mut missing = nv;
-    if parent.is_some() {
-        for f in 0..nf {
-            if topo.parents[f] == NO_PARENT {
-                continue;
-            }
-            for c in offsets[f] as usize..offsets[f + 1] as usize {
+    for f in 0..nf {
+        let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
+        if parent.is_some() && topo.parents[f] != NO_PARENT {
+            for c in a..b {
                 let v = indices[c] as usize;
+                end[v + 1] += 1;
                 if topo.corner_pos[c] != NO_POS && ctx[v] == NONE {
                     ctx[v] = c as u32;
                     ctx_face[v] = f as u32;
                     missing -= 1;
                 }
             }
+        } else {
+            for &v in &indices[a..b] {
+                end[v as usize + 1] += 1;
+            }
         }
     }
     // Neighbours: `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next vertex of the `j`-th
     // incident corner; vertex v's corners are `j` in `begin(v) .. end[v]`, in corner order.
-    let mut end = vec![0u32; nv + 1];
-    for &v in indices {
-        end[v as usize + 1] += 1;
-    }
     for i in 0..nv {
         end[i + 1] += end[i];
     }
-    let mut nbr = vec![0u32; 2 * indices.len()];
+    let nbr = at_least(nbr, 2 * nc);
     for f in 0..nf {
         let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
         let face = &indices[a..b];
         let n = face.len();
+        let mut prev = face[n - 1];
         for i in 0..n {
             let v = face[i] as usize;
+            let next = face[if i + 1 == n { 0 } else { i + 1 }];
             let j = end[v] as usize;
             end[v] += 1;
-            nbr[2 * j] = face[if i == 0 { n - 1 } else { i - 1 }];
-            nbr[2 * j + 1] = face[if i + 1 == n { 0 } else { i + 1 }];
+            nbr[2 * j] = prev;
+            nbr[2 * j + 1] = next;
+            prev = v as u32;
         }
     }
     // `end[v]` is now the end of v's corners and `end[v - 1]` their beginning.
@@ -428,11 +489,26 @@ pub fn geometry_pass<E>(
     if let Some(p) = parent {
         // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
         // not decoded yet and for vertices without a context, so the sums below need no test.
-        // |bias| <= 2^29 + 2^28 fits i32; so does a line parameter (|j| <= 2^30).
-        // bias[v] = [x, y, z, 1, j, 1 if v is a line vertex].
-        let mut bias = vec![[0i32; 6]; nv];
+        bias.clear();
+        bias.resize(nv, [0; 8]);
         let lattice_mode = topo.mode == Mode::Lattice;
         let lines = topo.lines;
+        let want_normal = lines || (lattice_mode && topo.predictor == PREDICTOR_NORMAL);
+        let pnf = p.face_count();
+        let quads = topo.parent_quads.unwrap_or(&[]);
+        faces.clear();
+        if want_normal {
+            faces.reserve(pnf);
+            if lattice_mode {
+                let quads = topo.parent_quads.expect("lattice mode has parent quads");
+                faces.extend(quads.iter().map(|&(quad, _)| FaceNormal::new(quad_normal(p.q, quad), topo.line_shift)));
+            } else {
+                faces.extend((0..pnf).map(|pf| FaceNormal::new(newell_normal(p.q, p.face(pf)), topo.line_shift)));
+            }
+        }
+        // The largest magnitude of any bias or parameter so far: sums of few small terms run in
+        // 32 bits.
+        let mut max_abs = 1i64;
         for v in 0..nv {
             let c = ctx[v];
             if c == NONE {
@@ -440,18 +516,18 @@ pub fn geometry_pass<E>(
             }
             let f = ctx_face[v] as usize;
             let pf = topo.parents[f] as usize;
-            let (pred, normal) = if lattice_mode {
-                let quads = topo.parent_quads.expect("lattice mode has parent quads");
+            let fnorm = if want_normal { faces[pf] } else { FaceNormal::default() };
+            let pred = if lattice_mode {
                 let slots = p.slots.expect("lattice parent");
                 let corners = topo.vertex_corners.expect("lattice level");
-                lattice_base(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, lines)
+                lattice_pred(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, &fnorm)
             } else {
                 let face = p.face(pf);
                 let n = face.len();
                 let qd = usize::from(topo.quadrants[f]);
                 let at = |i: usize| p.q[face[i % n] as usize];
                 let two = |x: [i64; 3], y: [i64; 3]| map3([0, 1, 2], |a| round_div(x[a] + y[a], 2));
-                let pred = match topo.corner_pos[c as usize] {
+                match topo.corner_pos[c as usize] {
                     0 => at(qd),
                     1 => two(at(qd), at(qd + 1)),
                     2 => {
@@ -464,31 +540,43 @@ pub fn geometry_pass<E>(
                         map3(sum, |s| round_div(s, n as i64))
                     }
                     _ => two(at(qd + n - 1), at(qd)),
-                };
-                (pred, if lines { newell_normal(p.q, face) } else { [0.0; 3] })
+                }
             };
             // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
             let base = clamp(pred);
             // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours;
             // `bias[u][5]` likewise for the line vertices among them.
-            let mut sum = [0i64; 6];
             let near = &nbr[range(v)];
-            if near.len() < 1 << 30 {
+            let sum = if (near.len() as i64).saturating_mul(max_abs) < 1 << 31 {
+                // No partial sum can leave 32 bits.
+                let mut acc = [0i32; 8];
+                for &u in near {
+                    let b = &bias[u as usize];
+                    for k in 0..8 {
+                        acc[k] += b[k];
+                    }
+                }
+                map6(|k| i64::from(acc[k]))
+            } else if near.len() < 1 << 30 {
                 // At most 2^30 terms of magnitude at most 2^30: no sum can saturate.
+                let mut acc = [0i64; 6];
                 for &u in near {
-                    let b = bias[u as usize];
+                    let b = &bias[u as usize];
                     for k in 0..6 {
-                        sum[k] += i64::from(b[k]);
+                        acc[k] += i64::from(b[k]);
                     }
                 }
+                acc
             } else {
+                let mut acc = [0i64; 6];
                 for &u in near {
-                    let b = bias[u as usize];
+                    let b = &bias[u as usize];
                     for k in 0..6 {
-                        sum[k] = sum[k].saturating_add(i64::from(b[k]));
+                        acc[k] = acc[k].saturating_add(i64::from(b[k]));
                     }
                 }
-            }
+                acc
+            };
             let count = sum[3];
             let mut pred = base;
             if count > 0 {
@@ -498,14 +586,16 @@ pub fn geometry_pass<E>(
             }
             let (line, param) = if lines {
                 let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
-                (Some(Line::new(base, normal, topo.line_shift)), jp)
+                (Some(Line { base, u: fnorm.u }), jp)
             } else {
                 (None, 0)
             };
             let (qv, j) = step(v, &Prediction { point: clamp(pred), line, param })?;
             q[v] = qv;
-            let (jv, on) = j.map_or((0, 0), |j| (j as i32, 1));
-            bias[v] = [(qv[0] - base[0]) as i32, (qv[1] - base[1]) as i32, (qv[2] - base[2]) as i32, 1, jv, on];
+            let (jv, on) = j.map_or((0, 0), |j| (j, 1));
+            let b = [qv[0] - base[0], qv[1] - base[1], qv[2] - base[2]];
+            max_abs = max_abs.max(b[0].abs()).max(b[1].abs()).max(b[2].abs()).max(jv.abs());
+            bias[v] = [b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0];
         }
     }
     if missing == 0 {
@@ -554,6 +644,11 @@ pub fn geometry_pass<E>(
     Ok(())
 }
 
+#[inline]
+fn map6(f: impl Fn(usize) -> i64) -> [i64; 6] {
+    [f(0), f(1), f(2), f(3), f(4), f(5)]
+}
+
 /// The normal of the fan of decoded neighbours around `base` (spec §6.6, pass B): the sum over the
 /// vertex's corners whose previous and next vertices `a`, `b` both count of
 /// `(Q_b - base) x (Q_a - base)`, exact in 128 bits, then rounded to binary64.
@@ -588,11 +683,22 @@ fn clamp(p: [i64; 3]) -> [i64; 3] {
     map3(p, |x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
 }
 
-/// The lattice predictor of spec §6.3 (`predictor` 0 or 1) and the parent face's normal `n` as
-/// binary64 (computed for predictor 1 only when `want_normal`; zero when the face is degenerate).
+/// The normal `n` of spec §6.3 of a canonical quad, `(G_2 - G_0) x (G_3 - G_1)` (exact: `|G| <=
+/// 2^28`), as binary64.
+#[inline]
+fn quad_normal(pq: &[[i64; 3]], quad: [u32; 4]) -> [f64; 3] {
+    let p = quad_points(pq, quad);
+    let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
+    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    map3(n, |x| x as f64)
+}
+
+/// The lattice predictor `P` of spec §6.3 (`predictor` 0 or 1), given the parent face's normal
+/// (`fnorm`, used by predictor 0 only).
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn lattice_base(
+fn lattice_pred(
     pq: &[[i64; 3]],
     quad: [u32; 4],
     slot: ([u32; 3], u8),
@@ -600,28 +706,18 @@ pub fn lattice_base(
     level: u32,
     bits: u32,
     predictor: u8,
-    want_normal: bool,
-) -> ([i64; 3], [f64; 3]) {
+    fnorm: &FaceNormal,
+) -> [i64; 3] {
     let p = quad_points(pq, quad);
     let s = bilinear_sum_of(&p, slot, corner);
-    if predictor == PREDICTOR_BILINEAR && !want_normal {
-        return (map3(s, |x| round_div(x, 4)), [0.0; 3]);
+    if predictor == PREDICTOR_BILINEAR || fnorm.nn4 == 0.0 {
+        return map3(s, |x| round_div(x, 4));
     }
-    let e1 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let e2 = [p[3][0] - p[1][0], p[3][1] - p[1][1], p[3][2] - p[1][2]];
-    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-    let nf = map3(n, |x| x as f64);
-    if predictor == PREDICTOR_BILINEAR {
-        return (map3(s, |x| round_div(x, 4)), nf);
-    }
+    let nf = fnorm.nf;
     let l = lattice::lattice_point(corner, level, bits);
     let d = [(s[0] - 4 * l[0]) as f64, (s[1] - 4 * l[1]) as f64, (s[2] - 4 * l[2]) as f64];
-    let nn = nf[0] * nf[0] + nf[1] * nf[1] + nf[2] * nf[2];
-    if nn == 0.0 {
-        return (map3(s, |x| round_div(x, 4)), nf);
-    }
-    let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / (4.0 * nn);
-    (map3([0, 1, 2], |k| l[k].saturating_add(round_away(nf[k] * t))), nf)
+    let t = (nf[0] * d[0] + nf[1] * d[1] + nf[2] * d[2]) / fnorm.nn4;
+    map3([0, 1, 2], |k| l[k].saturating_add(round_away(nf[k] * t)))
 }
 
 /// Newell's normal of a parent face (spec §6.6): the sum of `G_i x G_(i+1)` over its corners,

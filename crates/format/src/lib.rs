@@ -602,6 +602,7 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
             .then(|| Aabb { min: DVec3::from_array(h.cube_min), max: DVec3::from_array(h.cube_max) }),
     };
     let mut parent: Option<PlainLevel> = None;
+    let mut scratch = decode::Scratch::default();
     // One decompression context for all levels (its buffers are reused).
     let mut unzstd =
         zstd::bulk::Decompressor::new().map_err(|x| Error::Zstd { level: 0, offset: 0, reason: x.to_string() })?;
@@ -630,7 +631,7 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
         if payload.len() as u64 != e.raw_size {
             return Err(zerr(format!("decompressed to {} bytes, the level table says {}", payload.len(), e.raw_size)));
         }
-        let mut lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi)?;
+        let mut lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi, &mut scratch)?;
         if k == last {
             // No level follows: the lattice arrays move instead of being copied.
             let lattice = match (lv.slots.take(), lv.corners.take()) {

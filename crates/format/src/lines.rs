@@ -14,7 +14,8 @@ use crate::decode::PlainLevel;
 use crate::encode::{self, Encoded};
 use crate::error::EncodeError;
 use crate::level::{
-    GRID_LIMIT, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL, Topo, geometry_pass,
+    GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL,
+    Topo, geometry_pass,
 };
 use crate::{EncodeOptions, Grid, choose_grid, input_level};
 
@@ -213,7 +214,7 @@ fn place_level(
     let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
     let mut q = vec![[0i64; 3]; level.q.len()];
     let pp = parent.as_parent();
-    let _: Result<(), ()> = geometry_pass(&topo, Some(&pp), &mut q, |v, pr| {
+    let _: Result<(), ()> = geometry_pass(&topo, Some(&pp), &mut q, &mut GeometryScratch::default(), |v, pr| {
         let old = enc.vertex_old[v];
         let x = positions[old as usize];
         let Some(line) = pr.line else {

@@ -3,7 +3,7 @@
 //! Hierarchies: synthetic ones (`octowrap_format::synthetic`), and the bunny (levels 0-6) and the
 //! dragon (levels 0-7) reconstructed by `octowrap_recon::reconstruct` when the shared data is
 //! present. `OCTOWRAP_DUMP_FINEST=DIR` also writes each finest level (decoded) as PLY for the Draco
-//! script, and each whole hierarchy as an exact MRQ file.
+//! script, each whole hierarchy as an exact MRQ file, and the 12-bit file each row decodes.
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy, without_lattice};
 use octowrap_format::{
@@ -55,6 +55,11 @@ fn row(name: &str, h: &Hierarchy) {
         let mrq = path.with_extension("mrq");
         if let Err(e) = octowrap_format::write_path(&mrq, h, &exact) {
             eprintln!("cannot write {}: {e}", mrq.display());
+        }
+        // The file this row decodes (12 bits), for profiling the decoder on it.
+        let q12 = path.with_extension("q12.mrq");
+        if let Err(e) = std::fs::write(&q12, &bytes) {
+            eprintln!("cannot write {}: {e}", q12.display());
         }
         let mesh = &file.hierarchy.levels.last().expect("levels").mesh;
         if let Err(e) = octowrap_io::write_path(&path, mesh, &octowrap_io::WriteOptions::default()) {
