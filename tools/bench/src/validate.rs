@@ -6,7 +6,7 @@ use octowrap_io::{WriteOptions, write_path};
 use octowrap_mesh::Mesh;
 use octowrap_validate::{Options, validate_mesh};
 
-use crate::util::best_of;
+use crate::util::best_of_cpu;
 
 /// Prints the validator table.
 pub fn report() {
@@ -14,13 +14,14 @@ pub fn report() {
     println!();
     let mesh = octowrap_mesh::shapes::torus(1000, 500, 2.0, 0.7);
     let faces = mesh.faces.len();
-    let (secs, report) = best_of(7, || validate_mesh(&mesh, &Options::default()));
+    let (secs, cpu, report) = best_of_cpu(7, || validate_mesh(&mesh, &Options::default()));
     assert!(report.properties.watertight && report.properties.oriented, "the bench torus must be valid");
-    println!("| tool | mesh | faces | time (s) | M faces/s | target |");
-    println!("|---|---|---|---|---|---|");
+    println!("| tool | mesh | faces | time (s) | M faces/s | thread CPU (s) | M faces/s of CPU | target |");
+    println!("|---|---|---|---|---|---|---|---|");
     println!(
-        "| octowrap validate_mesh (1 thread, all checks but self-intersection) | torus | {faces} | {secs:.3} | {:.1} | >= 20 |",
-        faces as f64 / secs / 1e6
+        "| octowrap validate_mesh (1 thread, all checks but self-intersection) | torus | {faces} | {secs:.3} | {:.1} | {cpu:.3} | {:.1} | >= 20 |",
+        faces as f64 / secs / 1e6,
+        faces as f64 / cpu / 1e6
     );
     for (name, rel) in [
         ("dragon (dragon_vrip)", "stanford-dragon/dragon_vrip.ply.gz"),
@@ -28,28 +29,29 @@ pub fn report() {
         ("lucy (decimated)", "stanford-lucy-decimated/lucy.ply"),
     ] {
         let Some(path) = crate::util::shared_data().map(|d| d.join(rel)).filter(|p| p.is_file()) else {
-            println!("| octowrap validate_mesh | {name} | – | – | – | skipped: ../shared/data/{rel} absent |");
+            println!("| octowrap validate_mesh | {name} | – | – | – | – | – | skipped: ../shared/data/{rel} absent |");
             continue;
         };
         match octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()) {
             Ok(m) => {
-                let (secs, r) = best_of(5, || validate_mesh(&m, &Options::default()));
+                let (secs, cpu, r) = best_of_cpu(5, || validate_mesh(&m, &Options::default()));
                 println!(
-                    "| octowrap validate_mesh (1 thread, all checks but self-intersection) | {name}: {} boundary loops | {} | {secs:.3} | {:.1} | – |",
+                    "| octowrap validate_mesh (1 thread, all checks but self-intersection) | {name}: {} boundary loops | {} | {secs:.3} | {:.1} | {cpu:.3} | {:.1} | – |",
                     r.counts.boundary_loops,
                     m.faces.len(),
-                    m.faces.len() as f64 / secs / 1e6
+                    m.faces.len() as f64 / secs / 1e6,
+                    m.faces.len() as f64 / cpu / 1e6
                 );
             }
-            Err(e) => println!("| octowrap validate_mesh | {name} | – | – | – | not measured: {e} |"),
+            Err(e) => println!("| octowrap validate_mesh | {name} | – | – | – | – | – | not measured: {e} |"),
         }
     }
     match trimesh_time(&mesh) {
         Ok((t, watertight)) => println!(
-            "| trimesh is_watertight + is_winding_consistent (fresh mesh, process=False) | torus | {faces} | {t:.3} | {:.1} | (comparison; watertight={watertight}) |",
+            "| trimesh is_watertight + is_winding_consistent (fresh mesh, process=False) | torus | {faces} | {t:.3} | {:.1} | – | – | (comparison; watertight={watertight}) |",
             faces as f64 / t / 1e6
         ),
-        Err(why) => println!("| trimesh | torus | {faces} | – | – | not measured: {why} |"),
+        Err(why) => println!("| trimesh | torus | {faces} | – | – | – | – | not measured: {why} |"),
     }
     println!();
 }
