@@ -99,6 +99,7 @@
 //! output is the same whatever the number of threads.
 #![deny(missing_docs)]
 
+mod cellmoments;
 mod extract;
 mod fit;
 mod irregular;

@@ -26,6 +26,7 @@ use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
+use crate::cellmoments::ChildMoments;
 use crate::lattice::offset;
 use crate::octree::{BLOCK, Cells, Octree};
 
@@ -102,23 +103,25 @@ pub(crate) fn map_wrapped(
     }
     let l = cells.voxel();
     let level = cells.level;
-    let one = |v: usize, x: DVec3| -> (DVec3, Option<TangentPlane>) {
-        let w: Vec<usize> = pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize).collect();
+    let one = |near: &mut Vec<(DVec3, f64)>, v: usize, x: DVec3| -> (DVec3, Option<TangentPlane>) {
+        let w = || pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize);
         if quadric {
             // The points of W within one edge, for the weighted quadric.
-            let mut near: Vec<DVec3> = Vec::new();
+            near.clear();
             // Big voxels hold many points: a fixed stride keeps about 256, plenty for six unknowns.
-            let total: usize = w.iter().map(|&c| cells.range(c).len()).sum();
+            let total: usize = w().map(|c| cells.range(c).len()).sum();
             let stride = (total / 256).max(1);
-            for &c in &w {
+            let inv_h2 = 4.0 / (l * l);
+            for c in w() {
                 for p in tree.points[cells.range(c)].iter().step_by(stride) {
                     let d = p.as_dvec3() - x;
-                    if d.length_squared() < l * l {
-                        near.push(d);
+                    let d2 = d.length_squared();
+                    if d2 < l * l {
+                        near.push((d, (-d2 * inv_h2).exp()));
                     }
                 }
             }
-            if let Some((offset, normal)) = quadric_fit(&near, 0.5 * l) {
+            if let Some((offset, normal)) = quadric_fit(near, 0.5 * l) {
                 return (x + offset, Some(TangentPlane::new(x + offset, normal)));
             }
         }
@@ -129,7 +132,7 @@ pub(crate) fn map_wrapped(
         match (tree.levels.get(level as usize + 1), exact) {
             (Some(children), true) => {
                 let k = [corner.x as u32, corner.y as u32, corner.z as u32];
-                for &c in &w {
+                for c in w() {
                     let v = morton::decode(cells.keys[c]);
                     let child = morton::encode(v[0] + k[0], v[1] + k[1], v[2] + k[2]);
                     if let Some(ci) = children.find(child) {
@@ -138,7 +141,7 @@ pub(crate) fn map_wrapped(
                 }
             }
             _ => {
-                for &c in &w {
+                for c in w() {
                     gather(tree, cells, c, x, 0.5 * l, &mut m);
                 }
             }
@@ -150,9 +153,8 @@ pub(crate) fn map_wrapped(
         }
         if m.count < 3.0 {
             // All points of W': the voxels adjacent to W, by their moments.
-            let mut grown: Vec<usize> = w
-                .iter()
-                .flat_map(|&c| {
+            let mut grown: Vec<usize> = w()
+                .flat_map(|c| {
                     let key = cells.keys[c];
                     BLOCK.iter().filter_map(move |&o| offset(key, o, level).and_then(|k| cells.find(k)))
                 })
@@ -174,8 +176,8 @@ pub(crate) fn map_wrapped(
     positions
         .par_iter_mut()
         .enumerate()
-        .map(|(v, out)| {
-            let (p, plane) = one(v, *out);
+        .map_init(Vec::new, |near, (v, out)| {
+            let (p, plane) = one(near, v, *out);
             *out = p;
             plane
         })
@@ -189,31 +191,38 @@ const QUADRIC_MIN: usize = 10;
 /// of width `h`, a weighted plane, then `z = c0 + c1 a + c2 b + c3 a^2 + c4 ab + c5 b^2` over it by
 /// weighted least squares. Returns the vertex's move (its foot on the quadric along the plane
 /// normal) and the quadric's normal there; `None` with too few points or a move beyond `4 h`.
-fn quadric_fit(points: &[DVec3], h: f64) -> Option<(DVec3, DVec3)> {
+#[allow(clippy::needless_range_loop)] // a small dense symmetric matrix
+fn quadric_fit(points: &[(DVec3, f64)], h: f64) -> Option<(DVec3, DVec3)> {
     if points.len() < QUADRIC_MIN {
         return None;
     }
-    let inv = 1.0 / (h * h);
-    let weights: Vec<f64> = points.iter().map(|p| (-p.length_squared() * inv).exp()).collect();
     let mut m = Moments::default();
-    for (p, &w) in points.iter().zip(&weights) {
-        m.add_weighted(*p, w);
+    for &(p, w) in points {
+        m.add_weighted(p, w);
     }
     let plane = crate::fit::plane(&m)?;
     let (c, n) = (plane.point, plane.normal);
     let u = n.any_orthonormal_vector();
     let v = n.cross(u);
+    // The normal equations, upper triangle (the matrix is symmetric).
     let mut ata = [[0.0f64; 6]; 6];
     let mut atz = [0.0f64; 6];
-    for (p, &w) in points.iter().zip(&weights) {
-        let d = *p - c;
-        let (a, b, z) = (d.dot(u) / h, d.dot(v) / h, d.dot(n));
+    let inv = 1.0 / h;
+    for &(p, w) in points {
+        let d = p - c;
+        let (a, b, z) = (d.dot(u) * inv, d.dot(v) * inv, d.dot(n));
         let phi = [1.0, a, b, a * a, a * b, b * b];
         for i in 0..6 {
-            atz[i] += w * phi[i] * z;
-            for j in 0..6 {
-                ata[i][j] += w * phi[i] * phi[j];
+            let wi = w * phi[i];
+            atz[i] += wi * z;
+            for j in i..6 {
+                ata[i][j] += wi * phi[j];
             }
+        }
+    }
+    for i in 1..6 {
+        for j in 0..i {
+            ata[i][j] = ata[j][i];
         }
     }
     let trace: f64 = (0..6).map(|i| ata[i][i]).sum();
@@ -324,32 +333,86 @@ fn gather_ball(tree: &Octree, cells: &Cells, x: DVec3, radius: f64, m: &mut Mome
     }
 }
 
-/// Maps free vertices (of a subdivided level `level`) onto the points within one, then two,
-/// voxel edges of that level (queried on the voxels of the levels above, whose half edge those
-/// radii are).
+/// Maps free vertices (of a subdivided level `level`, voxel edge `l`) onto the plane of the
+/// points in the 2x2x2 level-`level` voxels around the lattice corner nearest to each (a box of
+/// `2 l` whose centre is within `l / 2` of the vertex on every axis), from those voxels' moments
+/// ([`ChildMoments`]); with fewer than 3 points, onto the points within `2 l` (the 2x2x2
+/// level-`level - 2` voxels around it).
 pub(crate) fn map_free(tree: &Octree, level: u32, positions: &mut [DVec3]) -> Vec<Option<TangentPlane>> {
-    let l = crate::octree::voxel_size(level);
-    // In chunks of consecutive vertices, each with its look-up caches (one per level queried);
-    // the caches only save look-ups, so the result does not depend on the chunking.
+    let parents = &tree.levels[level as usize - 1];
+    let kids = ChildMoments::new(tree, parents);
+    // In chunks of consecutive vertices, each with its look-up cache; the cache only saves
+    // look-ups, so the result does not depend on the chunking.
     let mut planes = vec![None; positions.len()];
     positions.par_chunks_mut(1024).zip(planes.par_chunks_mut(1024)).for_each(|(positions, planes)| {
-        let mut caches = [BallCache::default(); 2];
+        let mut cache = Lookups::new();
         for (out, plane) in positions.iter_mut().zip(planes) {
-            let x = *out;
-            let mut m = Moments::default();
-            for up in 1..=2u32 {
-                let Some(q) = level.checked_sub(up) else { break };
-                m = Moments::default();
-                let radius = f64::from(1u32 << (up - 1)) * l;
-                gather_ball(tree, &tree.levels[q as usize], x, radius, &mut m, &mut caches[up as usize - 1]);
-                if m.count >= 3.0 {
-                    break;
-                }
-            }
-            let (p, fitted) = fit(&m, x);
+            let (p, fitted) = map_one_free(parents, &kids, *out, &mut cache);
             *out = p;
             *plane = fitted;
         }
     });
     planes
+}
+
+/// A direct-mapped cache of voxel look-ups (consecutive vertices query nearby voxels, and the
+/// look-ups are cache misses in a large table).
+struct Lookups {
+    keys: [u64; 64],
+    found: [u32; 64],
+}
+
+impl Lookups {
+    fn new() -> Self {
+        Self { keys: [u64::MAX; 64], found: [0; 64] }
+    }
+
+    /// The index of voxel `v` in `cells`, if occupied.
+    #[inline]
+    fn find(&mut self, cells: &Cells, v: [u32; 3]) -> Option<usize> {
+        let code = morton::encode(v[0], v[1], v[2]);
+        let slot = ((code ^ (code >> 6)) & 63) as usize;
+        if self.keys[slot] != code {
+            self.keys[slot] = code;
+            self.found[slot] = cells.find(code).map_or(ABSENT, |i| i as u32);
+        }
+        (self.found[slot] != ABSENT).then_some(self.found[slot] as usize)
+    }
+}
+
+/// Maps one free vertex at `x` (see [`map_free`]).
+#[inline(never)]
+fn map_one_free(parents: &Cells, kids: &ChildMoments, x: DVec3, cache: &mut Lookups) -> (DVec3, Option<TangentPlane>) {
+    let l = crate::octree::voxel_size(kids.level);
+    let n = 1i64 << kids.level;
+    let c = (x / l).round();
+    let c = [c.x as i64, c.y as i64, c.z as i64];
+    let mut m = Moments::default();
+    for o in 0..8usize {
+        let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
+        if v.iter().any(|&a| a < 0 || a >= n) {
+            continue;
+        }
+        let v = v.map(|a| a as u32);
+        if let Some(p) = cache.find(parents, v.map(|a| a >> 1)) {
+            kids.add(p, v, x, &mut m);
+        }
+    }
+    if m.count < 3.0 {
+        // The 2x2x2 parents around the nearest corner of theirs.
+        m = Moments::default();
+        let c = (x / (2.0 * l)).round();
+        let c = [c.x as i64, c.y as i64, c.z as i64];
+        for o in 0..8usize {
+            let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
+            if v.iter().any(|&a| a < 0 || a >= n / 2) {
+                continue;
+            }
+            let v = v.map(|a| a as u32);
+            if let Some(p) = cache.find(parents, v) {
+                kids.add_parent(p, v, x, &mut m);
+            }
+        }
+    }
+    fit(&m, x)
 }
