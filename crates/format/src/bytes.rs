@@ -66,6 +66,11 @@ impl<'a> Reader<'a> {
         Error::Invalid { place: self.place, offset: self.offset(), what: self.stream, reason: reason.into() }
     }
 
+    /// An `Invalid` error at `offset` (within the region).
+    pub fn invalid_at(&self, offset: u64, reason: impl Into<String>) -> Error {
+        Error::Invalid { place: self.place, offset, what: self.stream, reason: reason.into() }
+    }
+
     /// Fails unless every byte was consumed (streams have exact lengths).
     pub fn finish(&self) -> Result<(), Error> {
         if self.remaining() != 0 {

@@ -11,6 +11,22 @@ use crate::level::{
     rotated, s,
 };
 
+/// `rotated(r, i)` (spec §5.2) for every rotation byte `r < 8` and corner `i < 4`.
+const ROTATIONS: [[u8; 4]; 8] = {
+    let mut t = [[0u8; 4]; 8];
+    let mut r = 0;
+    while r < 8 {
+        let mut i = 0;
+        while i < 4 {
+            let turn = r & 3;
+            t[r][i] = (if r & 4 == 0 { (turn + i) % 4 } else { (turn + 4 - i) % 4 }) as u8;
+            i += 1;
+        }
+        r += 1;
+    }
+    t
+};
+
 /// One decoded level on plain arrays.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PlainLevel {
@@ -62,6 +78,30 @@ pub struct GridInfo {
 #[derive(Default)]
 pub struct Scratch {
     geometry: GeometryScratch,
+    /// Per corner: its predicted name, or `u64::MAX`.
+    pred: Vec<u64>,
+    /// Per corner: its canonical position, or [`NO_POS`].
+    pos: Vec<u8>,
+    /// [`sort_names`]' bitmap and ranks.
+    bits: Vec<u64>,
+    rank: Vec<u32>,
+    /// The level's names, sorted.
+    names: Vec<u64>,
+    /// Per corner: the index of its name, or [`NONE`].
+    name_of: Vec<u32>,
+}
+
+impl Scratch {
+    /// Bytes held by the buffers.
+    pub fn capacity_bytes(&self) -> usize {
+        self.geometry.capacity_bytes()
+            + self.pred.capacity() * 8
+            + self.pos.capacity()
+            + self.bits.capacity() * 8
+            + self.rank.capacity() * 4
+            + self.names.capacity() * 8
+            + self.name_of.capacity() * 4
+    }
 }
 
 /// Decodes level `k`'s decompressed payload.
@@ -174,8 +214,11 @@ pub fn decode_level(
         let p = parent.expect("levels above 0 have a parent");
         let pp = p.as_parent();
         // §5.3 / §5.4: subfaces, then created faces; predicted names per corner.
-        let mut pred = vec![u64::MAX; nc];
-        let mut pos = vec![NO_POS; nc];
+        let Scratch { geometry, pred, pos, bits, rank, names, name_of } = scratch;
+        pred.clear();
+        pred.resize(nc, u64::MAX);
+        pos.clear();
+        pos.resize(nc, NO_POS);
         let rot_of = |st: &mut [Reader<'_>]| -> Result<u8, Error> {
             let r = st[s::ROTATIONS].u8()?;
             if r & !7 != 0 {
@@ -191,34 +234,44 @@ pub fn decode_level(
             })?;
             let pslots = pp.slots.expect("checked");
             let max_key = 6u64 << (3 * k); // slot keys at depth k are below 6 N^3 (k <= 20)
-            let mut depth_byte = 0u8;
+            // Child masks, one byte per parent face, then one depth bit per subface.
+            let masks_at = st[s::CHILD_MASKS].offset();
+            let masks = st[s::CHILD_MASKS].bytes(pslots.len())?;
             let mut sub = 0usize;
-            for (pf, pslot) in pslots.iter().enumerate() {
-                let mask = st[s::CHILD_MASKS].u8()?;
+            for (i, &mask) in masks.iter().enumerate() {
                 if mask & 0xf0 != 0 {
-                    return Err(st[s::CHILD_MASKS].invalid(format!("child mask {mask:#x} has bits above 3")));
+                    let r = &st[s::CHILD_MASKS];
+                    return Err(r.invalid_at(masks_at + i as u64, format!("child mask {mask:#x} has bits above 3")));
                 }
-                for qd in 0..4u8 {
-                    if mask & (1 << qd) == 0 {
-                        continue;
-                    }
-                    if sub == nf {
-                        return Err(st[s::CHILD_MASKS].invalid("more subfaces than face_count"));
-                    }
-                    if sub % 8 == 0 {
-                        depth_byte = st[s::DEPTHS].u8()?;
-                    }
-                    let inner = depth_byte >> (sub % 8) & 1 == 1;
-                    let pc = lattice::slot_corners(pslot.0, pslot.1)[rotated(parent_quads[pf].1, usize::from(qd))];
-                    let slot = lattice::child_slot(pslot.0, pslot.1, pc, inner).expect("a slot corner");
-                    slots.push(slot);
-                    out.parents.push(pf as u32);
-                    out.quadrants.push(qd);
-                    sub += 1;
+                sub += mask.count_ones() as usize;
+                if sub > nf {
+                    return Err(st[s::CHILD_MASKS].invalid_at(masks_at + i as u64, "more subfaces than face_count"));
                 }
             }
-            if sub % 8 != 0 && depth_byte >> (sub % 8) != 0 {
+            let depths = st[s::DEPTHS].bytes(sub.div_ceil(8))?;
+            if sub % 8 != 0 && depths[sub / 8] >> (sub % 8) != 0 {
                 return Err(st[s::DEPTHS].invalid("unused depth bits are not zero"));
+            }
+            slots.reserve_exact(nf);
+            out.parents.reserve_exact(nf);
+            out.quadrants.reserve_exact(nf);
+            let mut i = 0usize;
+            for (pf, &mask) in masks.iter().enumerate() {
+                if mask == 0 {
+                    continue;
+                }
+                let (pv, pd) = pslots[pf];
+                let prot = parent_quads[pf].1;
+                for qd in 0..4u8 {
+                    if mask >> qd & 1 == 0 {
+                        continue;
+                    }
+                    let inner = depths[i / 8] >> (i % 8) & 1 == 1;
+                    slots.push(lattice::child_slot_at(pv, pd, rotated(prot, usize::from(qd)), inner));
+                    out.parents.push(pf as u32);
+                    out.quadrants.push(qd);
+                    i += 1;
+                }
             }
             let mut key = 0u64;
             for i in sub..nf {
@@ -233,18 +286,23 @@ pub fn decode_level(
             if nc != 4 * nf {
                 return Err(bad(12, format!("lattice levels are quads: corner_count must be {}", 4 * nf)));
             }
-            for (f, slot) in slots.iter().enumerate() {
-                let r = rot_of(&mut st)?;
-                let sc = lattice::slot_corners(slot.0, slot.1);
-                for i in 0..4 {
-                    let cp = rotated(r, i);
-                    pred[corner] = lattice::corner_key(sc[cp], k);
-                    if out.parents[f] != NO_PARENT {
-                        pos[corner] = cp as u8;
-                    }
-                    corner += 1;
+            let rots_at = st[s::ROTATIONS].offset();
+            let rots = st[s::ROTATIONS].bytes(nf)?;
+            if let Some(f) = rots.iter().position(|&r| r & !7 != 0) {
+                let r = &st[s::ROTATIONS];
+                return Err(
+                    r.invalid_at(rots_at + f as u64, format!("rotation byte {:#x} has reserved bits set", rots[f]))
+                );
+            }
+            out.offsets.extend((1..=nf as u32).map(|f| 4 * f));
+            for (f, (slot, &r)) in slots.iter().zip(rots).enumerate() {
+                let keys = lattice::slot_corner_keys(slot.0, slot.1, k);
+                let cps = ROTATIONS[usize::from(r)];
+                let c = 4 * f;
+                pred[c..c + 4].copy_from_slice(&cps.map(|cp| keys[usize::from(cp)]));
+                if f < sub {
+                    pos[c..c + 4].copy_from_slice(&cps);
                 }
-                out.offsets.push(corner as u32);
             }
         } else {
             let (edge_of_corner, ne) = number_edges(pp.offsets, pp.indices);
@@ -303,7 +361,7 @@ pub fn decode_level(
         }
         // §5.5: the name set and splits.
         // Predicted names, sorted once (radix); `name_of[c]` = the index of corner c's name.
-        let (mut names, mut name_of) = sort_names(&pred);
+        sort_names(pred, names, name_of, bits, rank);
         let r = &mut st[s::EXTRA_NAMES];
         let ne = r.varint_max(nv as u64, "extra name count")? as usize;
         let mut extras = Vec::with_capacity(ne);
@@ -326,7 +384,7 @@ pub fn decode_level(
             let mut merged = Vec::with_capacity(names.len() + extras.len());
             let mut shift = Vec::with_capacity(names.len());
             let mut e = 0;
-            for &n in &names {
+            for &n in names.iter() {
                 while e < extras.len() && extras[e] < n {
                     merged.push(extras[e]);
                     e += 1;
@@ -335,12 +393,12 @@ pub fn decode_level(
                 merged.push(n);
             }
             merged.extend_from_slice(&extras[e..]);
-            for x in &mut name_of {
+            for x in name_of.iter_mut() {
                 if *x != NONE {
                     *x = shift[*x as usize];
                 }
             }
-            names = merged;
+            *names = merged;
         }
         let mut count = vec![1u32; names.len()];
         let r = &mut st[s::SPLITS];
@@ -374,74 +432,107 @@ pub fn decode_level(
         if total != nv as u64 {
             return Err(st[s::SPLITS].invalid(format!("names and splits make {total} vertices, vertex_count is {nv}")));
         }
-        let mut first = Vec::with_capacity(names.len() + 1);
-        let mut acc = 0u32;
-        for &c in &count {
-            first.push(acc);
-            acc += c;
-        }
-        first.push(acc);
         // §5.6: corners to vertices.
         let nexc = st[s::EXCEPTIONS].varint_max(nc as u64, "exception count")? as usize;
-        let mut exc_left = nexc;
-        let mut next_exc =
-            if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
-        let mut prev_explicit = 0i64;
-        for c in 0..nc {
-            if pred[c] == u64::MAX {
-                prev_explicit = prev_explicit.wrapping_add(unzigzag(st[s::CORNERS].varint()?));
-                if prev_explicit < 0 || prev_explicit >= nv as i64 {
-                    return Err(st[s::CORNERS].invalid(format!("vertex index {prev_explicit} out of range 0..{nv}")));
+        let explicit = pred.contains(&u64::MAX);
+        if nsplit == 0 && !explicit {
+            // One vertex per name, numbered as the names: corner c's vertex is its name's index,
+            // then the exceptions.
+            out.indices.copy_from_slice(name_of);
+            let r = &mut st[s::EXCEPTIONS];
+            let mut at = 0u64;
+            for i in 0..nexc {
+                let c = if i == 0 {
+                    r.varint_max(nc as u64, "exception position")?
+                } else {
+                    at + 1 + r.varint_max(nc as u64, "exception position gap")?
+                };
+                if c >= nc as u64 {
+                    return Err(r.invalid(format!("exception position {c} is beyond the corners")));
                 }
-                out.indices[c] = prev_explicit as u32;
-                if next_exc == Some(c as u64) {
-                    return Err(st[s::EXCEPTIONS].invalid(format!("exception at corner {c}, which has no prediction")));
-                }
-                continue;
-            }
-            if next_exc == Some(c as u64) {
-                let r = &mut st[s::EXCEPTIONS];
                 let v = r.varint_max(nv.saturating_sub(1) as u64, "exception vertex")?;
                 if nv == 0 {
                     return Err(r.invalid("exception in a level without vertices"));
                 }
-                out.indices[c] = v as u32;
-                pos[c] = NO_POS;
-                exc_left -= 1;
-                next_exc = if exc_left > 0 {
-                    let gap = r.varint_max(nc as u64, "exception position gap")?;
-                    Some(c as u64 + 1 + gap)
-                } else {
-                    None
-                };
-                continue;
+                out.indices[c as usize] = v as u32;
+                pos[c as usize] = NO_POS;
+                at = c;
             }
-            let i = name_of[c] as usize;
-            let k2 = count[i];
-            if k2 == 0 {
-                return Err(st[s::CHOICES].invalid(format!("corner {c} names {} which has no vertex", pred[c])));
+        } else {
+            let mut first = Vec::with_capacity(names.len() + 1);
+            let mut acc = 0u32;
+            for &c in &count {
+                first.push(acc);
+                acc += c;
             }
-            let choice = if k2 == 1 { 0 } else { st[s::CHOICES].varint_max(u64::from(k2 - 1), "choice")? as u32 };
-            out.indices[c] = first[i] + choice;
-        }
-        if let Some(p) = next_exc {
-            return Err(st[s::EXCEPTIONS].invalid(format!("exception position {p} is beyond the corners")));
+            first.push(acc);
+            let mut exc_left = nexc;
+            let mut next_exc =
+                if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
+            let mut prev_explicit = 0i64;
+            for c in 0..nc {
+                if pred[c] == u64::MAX {
+                    prev_explicit = prev_explicit.wrapping_add(unzigzag(st[s::CORNERS].varint()?));
+                    if prev_explicit < 0 || prev_explicit >= nv as i64 {
+                        return Err(
+                            st[s::CORNERS].invalid(format!("vertex index {prev_explicit} out of range 0..{nv}"))
+                        );
+                    }
+                    out.indices[c] = prev_explicit as u32;
+                    if next_exc == Some(c as u64) {
+                        return Err(
+                            st[s::EXCEPTIONS].invalid(format!("exception at corner {c}, which has no prediction"))
+                        );
+                    }
+                    continue;
+                }
+                if next_exc == Some(c as u64) {
+                    let r = &mut st[s::EXCEPTIONS];
+                    let v = r.varint_max(nv.saturating_sub(1) as u64, "exception vertex")?;
+                    if nv == 0 {
+                        return Err(r.invalid("exception in a level without vertices"));
+                    }
+                    out.indices[c] = v as u32;
+                    pos[c] = NO_POS;
+                    exc_left -= 1;
+                    next_exc = if exc_left > 0 {
+                        let gap = r.varint_max(nc as u64, "exception position gap")?;
+                        Some(c as u64 + 1 + gap)
+                    } else {
+                        None
+                    };
+                    continue;
+                }
+                let i = name_of[c] as usize;
+                let k2 = count[i];
+                if k2 == 0 {
+                    return Err(st[s::CHOICES].invalid(format!("corner {c} names {} which has no vertex", pred[c])));
+                }
+                let choice = if k2 == 1 { 0 } else { st[s::CHOICES].varint_max(u64::from(k2 - 1), "choice")? as u32 };
+                out.indices[c] = first[i] + choice;
+            }
+            if let Some(p) = next_exc {
+                return Err(st[s::EXCEPTIONS].invalid(format!("exception position {p} is beyond the corners")));
+            }
         }
         if mode == Mode::Lattice {
-            let mut vc = Vec::with_capacity(nv);
             let keys = lattice::CornerKeys::new(k);
-            for (i, &nm) in names.iter().enumerate() {
-                let c = keys.corner(nm); // valid: predicted from slots, or extras checked above
-                for _ in 0..count[i] {
-                    vc.push(c);
+            // Valid keys: predicted from slots, or extras checked above.
+            let vc = if nsplit == 0 {
+                names.iter().map(|&nm| keys.corner(nm)).collect()
+            } else {
+                let mut vc = Vec::with_capacity(nv);
+                for (i, &nm) in names.iter().enumerate() {
+                    let c = keys.corner(nm);
+                    for _ in 0..count[i] {
+                        vc.push(c);
+                    }
                 }
-            }
+                vc
+            };
             out.corners = Some(vc);
             out.slots = Some(slots);
         }
-        // Geometry context positions exclude exceptions; pass them on. The topology temporaries
-        // go first, so that the geometry pass can reuse their memory (fewer fresh pages).
-        drop((pred, name_of, names, count, first));
         out.parents.shrink_to_fit();
         return finish(
             k,
@@ -451,13 +542,15 @@ pub fn decode_level(
             &mut st,
             out,
             Some(p),
-            &pos,
+            pos,
             &parent_quads,
             nv,
-            scratch,
+            geometry,
         );
     }
-    let pos = vec![NO_POS; nc];
+    let pos = &mut scratch.pos;
+    pos.clear();
+    pos.resize(nc, NO_POS);
     finish(
         k,
         (mode, predictor, lines, line_shift),
@@ -466,10 +559,10 @@ pub fn decode_level(
         &mut st,
         out,
         None,
-        &pos,
+        pos,
         &parent_quads,
         nv,
-        scratch,
+        &mut scratch.geometry,
     )
 }
 
@@ -485,7 +578,7 @@ fn finish(
     pos: &[u8],
     parent_quads: &[([u32; 4], u8)],
     nv: usize,
-    scratch: &mut Scratch,
+    geometry: &mut GeometryScratch,
 ) -> Result<PlainLevel, Error> {
     let nf = out.parents.len();
     if mode != Mode::Lattice && has_lattice {
@@ -560,7 +653,7 @@ fn finish(
             &topo,
             pp.as_ref(),
             &mut q,
-            &mut scratch.geometry,
+            geometry,
             #[inline(always)]
             |v, pr| {
                 if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
@@ -598,11 +691,12 @@ fn finish(
     Ok(out)
 }
 
-/// The sorted distinct predicted names, and per corner the index of its name (`NONE` for corners
-/// without a prediction). Dense names go through a bitmap with ranks; others through an LSD radix
-/// sort on 11-bit digits, skipping the digits where all names agree, with (name - smallest name,
-/// corner) packed in one `u64` when both fit. Linear in the corner count either way.
-fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
+/// The sorted distinct predicted names (into `names`), and per corner the index of its name
+/// (into `name_of`; `NONE` for corners without a prediction). Dense names go through a bitmap
+/// with ranks (`bits`, `rank`: scratch); others through an LSD radix sort on 11-bit digits,
+/// skipping the digits where all names agree, with (name - smallest name, corner) packed in one
+/// `u64` when both fit. Linear in the corner count either way.
+fn sort_names(pred: &[u64], names: &mut Vec<u64>, name_of: &mut Vec<u32>, bits: &mut Vec<u64>, rank: &mut Vec<u32>) {
     let (mut lo, mut hi) = (u64::MAX, 0u64);
     let mut n = 0usize;
     for &p in pred {
@@ -612,23 +706,26 @@ fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
             n += 1;
         }
     }
-    let mut names = Vec::with_capacity(n / 2);
-    let mut name_of = vec![NONE; pred.len()];
+    names.clear();
+    name_of.clear();
+    name_of.resize(pred.len(), NONE);
     if n == 0 {
-        return (names, name_of);
+        return;
     }
     if (hi - lo) / 64 < n as u64 {
         // Dense names (every generic level, lattice levels of a surface): a bitmap of the names
         // and a rank per 64-bit word; no more memory than the sort would take.
         let words = ((hi - lo) / 64 + 1) as usize;
-        let mut bits = vec![0u64; words];
+        bits.clear();
+        bits.resize(words, 0);
         for &p in pred {
             if p != u64::MAX {
                 let x = p - lo;
                 bits[(x / 64) as usize] |= 1 << (x % 64);
             }
         }
-        let mut rank = Vec::with_capacity(words);
+        rank.clear();
+        rank.reserve(words);
         let mut acc = 0u32;
         for (w, &b) in bits.iter().enumerate() {
             rank.push(acc);
@@ -646,7 +743,7 @@ fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
                 name_of[c] = rank[w] + (bits[w] & ((1u64 << (x % 64)) - 1)).count_ones();
             }
         }
-        return (names, name_of);
+        return;
     }
     let kbits = 64 - (hi - lo).leading_zeros();
     let cbits = 64 - (pred.len() as u64).leading_zeros();
@@ -684,7 +781,6 @@ fn sort_names(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
             name_of[c as usize] = names.len() as u32 - 1;
         }
     }
-    (names, name_of)
 }
 
 /// Stable LSD radix sort of `items` by bits `from .. to` of `key(item)`, 11 bits per pass; passes
@@ -721,6 +817,13 @@ fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u3
 mod tests {
     use super::{NONE, sort_names};
 
+    /// [`sort_names`] on buffers that hold something already.
+    fn sorted(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
+        let (mut names, mut name_of) = (vec![7], vec![1, 2]);
+        sort_names(pred, &mut names, &mut name_of, &mut vec![5; 3], &mut Vec::new());
+        (names, name_of)
+    }
+
     fn naive(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
         let mut names: Vec<u64> = pred.iter().copied().filter(|&p| p != u64::MAX).collect();
         names.sort_unstable();
@@ -743,8 +846,8 @@ mod tests {
         {
             let pred: Vec<u64> =
                 (0..n).map(|_| if next() % 5 == 0 { u64::MAX } else { base + next() % spread.max(1) }).collect();
-            assert_eq!(sort_names(&pred), naive(&pred), "n {n} spread {spread}");
+            assert_eq!(sorted(&pred), naive(&pred), "n {n} spread {spread}");
         }
-        assert_eq!(sort_names(&[u64::MAX - 1, 0, 3, u64::MAX]), naive(&[u64::MAX - 1, 0, 3, u64::MAX]));
+        assert_eq!(sorted(&[u64::MAX - 1, 0, 3, u64::MAX]), naive(&[u64::MAX - 1, 0, 3, u64::MAX]));
     }
 }

@@ -388,6 +388,15 @@ pub struct GeometryScratch {
     faces: Vec<FaceNormal>,
 }
 
+impl GeometryScratch {
+    /// Bytes held by the buffers.
+    pub fn capacity_bytes(&self) -> usize {
+        (self.ctx.capacity() + self.ctx_face.capacity() + self.end.capacity() + self.nbr.capacity()) * 4
+            + self.bias.capacity() * size_of::<[i32; 8]>()
+            + self.faces.capacity() * size_of::<FaceNormal>()
+    }
+}
+
 /// What every vertex of one parent face shares in pass A: the face's normal `nf` (§6.3 or §6.6),
 /// `4 nn` of §6.3, and the line direction `u` of §6.6.
 #[derive(Clone, Copy, Default)]

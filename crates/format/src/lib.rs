@@ -542,6 +542,17 @@ fn read_vec(r: &mut impl Read, n: u64, offset: u64, what: &str) -> Result<Vec<u8
     Ok(v)
 }
 
+/// [`read_vec`] into a reused buffer.
+fn read_into(r: &mut impl Read, buf: &mut Vec<u8>, n: u64, offset: u64, what: &str) -> Result<(), Error> {
+    buf.clear();
+    buf.reserve(n.min(1 << 20) as usize);
+    r.take(n).read_to_end(buf)?;
+    if (buf.len() as u64) < n {
+        return Err(Error::Truncated { offset, what: what.to_owned(), needed: n, got: buf.len() as u64 });
+    }
+    Ok(())
+}
+
 fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> {
     let mut head = [0u8; HEADER_SIZE];
     // A short file that does not even start with the magic is not an MRQ file.
@@ -577,11 +588,48 @@ pub fn read_info(mut r: impl Read, limits: &Limits) -> Result<FileInfo, Error> {
     Ok(FileInfo::from_preamble(&read_preamble(&mut r, limits)?))
 }
 
+/// Buffers a thread's decodes share: the zstd context, the stored and decompressed bytes of a
+/// level, and the level decoder's arrays. Kept between calls unless they grew beyond
+/// [`KEPT_BUFFER_BYTES`], so that decoding many small files does not allocate (and fault in) the
+/// same memory again and again.
+#[derive(Default)]
+struct DecodeBuffers {
+    unzstd: Option<zstd::bulk::Decompressor<'static>>,
+    stored: Vec<u8>,
+    payload: Vec<u8>,
+    level: decode::Scratch,
+}
+
+/// The most buffer memory a thread keeps between decodes.
+const KEPT_BUFFER_BYTES: usize = 64 << 20;
+
+thread_local! {
+    static BUFFERS: std::cell::RefCell<Option<DecodeBuffers>> = const { std::cell::RefCell::new(None) };
+}
+
 /// Decodes levels `0..=opts.max_level` (all by default) from `r`, reading the input in order and
 /// nothing beyond the last level asked for.
+///
+/// One call decodes on the calling thread. The thread keeps the decoder's working buffers (up to
+/// 64 MiB) for its next call; the returned hierarchy is always freshly allocated.
 pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> {
     let pre = read_preamble(&mut r, &opts.limits)?;
-    let info = FileInfo::from_preamble(&pre);
+    let mut buffers = BUFFERS.with(|b| b.borrow_mut().take()).unwrap_or_default();
+    let out = decode_levels(&mut r, &pre, opts, &mut buffers);
+    let kept = buffers.stored.capacity() + buffers.payload.capacity() + buffers.level.capacity_bytes();
+    if kept <= KEPT_BUFFER_BYTES {
+        BUFFERS.with(|b| *b.borrow_mut() = Some(buffers));
+    }
+    Ok(MrqFile { info: FileInfo::from_preamble(&pre), hierarchy: out? })
+}
+
+/// The levels of [`decode`], after the preamble.
+fn decode_levels(
+    r: &mut impl Read,
+    pre: &Preamble,
+    opts: &DecodeOptions,
+    buffers: &mut DecodeBuffers,
+) -> Result<Hierarchy, Error> {
     let n = pre.levels.len() as u32;
     let last = match opts.max_level {
         Some(k) if k >= n => return Err(Error::NoSuchLevel { requested: k, available: n }),
@@ -597,19 +645,25 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
     };
     let origin = DVec3::from_array(h.origin);
     let mut out = Hierarchy {
-        levels: Vec::new(),
+        levels: Vec::with_capacity(last as usize + 1),
         cube: (h.flags & FLAG_CUBE != 0)
             .then(|| Aabb { min: DVec3::from_array(h.cube_min), max: DVec3::from_array(h.cube_max) }),
     };
     let mut parent: Option<PlainLevel> = None;
-    let mut scratch = decode::Scratch::default();
     // One decompression context for all levels (its buffers are reused).
-    let mut unzstd =
-        zstd::bulk::Decompressor::new().map_err(|x| Error::Zstd { level: 0, offset: 0, reason: x.to_string() })?;
+    let unzstd = match &mut buffers.unzstd {
+        Some(z) => z,
+        none => none.insert(zstd::bulk::Decompressor::new().map_err(|x| Error::Zstd {
+            level: 0,
+            offset: 0,
+            reason: x.to_string(),
+        })?),
+    };
     for k in 0..=last {
         let e = &pre.levels[k as usize];
-        let stored = read_vec(&mut r, e.stored_size, e.offset, &format!("level {k}"))?;
-        let computed = xxh3_64(&stored);
+        let stored = &mut buffers.stored;
+        read_into(r, stored, e.stored_size, e.offset, &format!("level {k}"))?;
+        let computed = xxh3_64(stored);
         if computed != e.checksum {
             return Err(Error::ChecksumMismatch {
                 place: Where::Level(k),
@@ -619,7 +673,7 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
             });
         }
         let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
-        match zstd::zstd_safe::get_frame_content_size(&stored) {
+        match zstd::zstd_safe::get_frame_content_size(stored) {
             Ok(Some(size)) if size == e.raw_size => {}
             Ok(Some(size)) => {
                 return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size)));
@@ -627,26 +681,22 @@ pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> 
             Ok(None) => return Err(zerr("the frame does not state its content size".into())),
             Err(_) => return Err(zerr("not a zstd frame".into())),
         }
-        let payload = unzstd.decompress(&stored, e.raw_size as usize).map_err(|x| zerr(x.to_string()))?;
+        // The size is checked against the limits (level table) and stated by the frame.
+        let payload = &mut buffers.payload;
+        payload.clear();
+        payload.reserve(e.raw_size as usize);
+        unzstd.decompress_to_buffer(stored.as_slice(), payload).map_err(|x| zerr(x.to_string()))?;
         if payload.len() as u64 != e.raw_size {
             return Err(zerr(format!("decompressed to {} bytes, the level table says {}", payload.len(), e.raw_size)));
         }
-        let mut lv = decode::decode_level(k, &payload, e, parent.as_ref(), gi, &mut scratch)?;
-        if k == last {
-            // No level follows: the lattice arrays move instead of being copied.
-            let lattice = match (lv.slots.take(), lv.corners.take()) {
-                (Some(face_slots), Some(vertex_corners)) => Some(LevelLattice { face_slots, vertex_corners }),
-                _ => None,
-            };
-            let mut level = to_level(&lv, origin, h.step);
-            level.lattice = lattice;
-            out.levels.push(level);
-            break;
+        let lv = decode::decode_level(k, payload, e, parent.as_ref(), gi, &mut buffers.level)?;
+        // The parent is no longer needed: its arrays move into the output.
+        if let Some(p) = parent.replace(lv) {
+            out.levels.push(into_level(p, origin, h.step));
         }
-        out.levels.push(to_level(&lv, origin, h.step));
-        parent = Some(lv);
     }
-    Ok(MrqFile { info, hierarchy: out })
+    out.levels.extend(parent.map(|p| into_level(p, origin, h.step)));
+    Ok(out)
 }
 
 /// Decodes a whole file held in memory, with [`Limits::strict`]-free default limits.
@@ -655,15 +705,28 @@ pub fn decode_bytes(bytes: &[u8], opts: &DecodeOptions) -> Result<MrqFile, Error
 }
 
 fn to_level(lv: &PlainLevel, origin: DVec3, step: f64) -> Level {
+    into_level(lv.clone(), origin, step)
+}
+
+/// A decoded level as a [`Level`]: grid coordinates to positions (spec §6.7), arrays moved where
+/// the types allow.
+fn into_level(lv: PlainLevel, origin: DVec3, step: f64) -> Level {
     let positions: Vec<DVec3> = if lv.exact.is_empty() && !lv.q.is_empty() {
         lv.q.iter().map(|q| origin + DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) * step).collect()
     } else {
         lv.exact.iter().map(|p| DVec3::from_array(*p)).collect()
     };
-    let mut faces = FaceList::with_capacity(lv.parents.len(), lv.indices.len());
-    for w in lv.offsets.windows(2) {
-        faces.push(&lv.indices[w[0] as usize..w[1] as usize]);
-    }
+    let quads = lv.offsets.iter().enumerate().all(|(f, &o)| o as usize == 4 * f);
+    let faces = if quads {
+        let q: Vec<[u32; 4]> = lv.indices.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+        FaceList::from_quads(&q)
+    } else {
+        let mut faces = FaceList::with_capacity(lv.parents.len(), lv.indices.len());
+        for w in lv.offsets.windows(2) {
+            faces.push(&lv.indices[w[0] as usize..w[1] as usize]);
+        }
+        faces
+    };
     let origins = lv
         .parents
         .iter()
@@ -672,8 +735,8 @@ fn to_level(lv: &PlainLevel, origin: DVec3, step: f64) -> Level {
             if p == NO_PARENT { FaceOrigin::Created } else { FaceOrigin::Subface { parent: p, quadrant: Quadrant(q) } }
         })
         .collect();
-    let lattice = match (&lv.slots, &lv.corners) {
-        (Some(s), Some(c)) => Some(LevelLattice { face_slots: s.clone(), vertex_corners: c.clone() }),
+    let lattice = match (lv.slots, lv.corners) {
+        (Some(face_slots), Some(vertex_corners)) => Some(LevelLattice { face_slots, vertex_corners }),
         _ => None,
     };
     Level { mesh: Mesh { vertices: octowrap_mesh::PointCloud::from_positions(positions), faces }, origins, lattice }
