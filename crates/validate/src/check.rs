@@ -23,6 +23,7 @@
 
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, Mesh};
+use wide::{CmpEq, i32x8};
 
 use crate::report::{Code, Component, Counts, Element, Finding, MeshReport, Properties};
 use crate::{Options, dsu::Dsu};
@@ -74,6 +75,10 @@ type RingEntry = [u32; 2];
 const LANES: usize = 32;
 /// "No corner" in [`regular_ring`]'s tables.
 const NONE: u8 = u8::MAX;
+
+/// Rings of up to this many corners are searched by vector compares (most vertices of most
+/// meshes: the valence of a regular triangle mesh is 6, of a quad mesh 4).
+const SHORT_RING: usize = 8;
 
 /// What the edge walk found, in report order.
 #[derive(Default)]
@@ -293,7 +298,8 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
     for v in 0..n {
         ring_end[v + 1] += ring_end[v];
     }
-    let mut ring: Vec<RingEntry> = vec![[0; 2]; ring_end[n] as usize];
+    // Padded so that every ring can be read as a window of `SHORT_RING` entries.
+    let mut ring: Vec<RingEntry> = vec![[0; 2]; ring_end[n] as usize + SHORT_RING];
     {
         let fill = &mut ring_end[..n];
         faces_by_arity!(faces, arity, |f, face: &[u32]| {
@@ -326,12 +332,14 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
         keys: Vec::new(),
     };
     for v in 0..n {
-        let r = &ring[ring_start[v] as usize..ring_start[v + 1] as usize];
+        let (a, b) = (ring_start[v] as usize, ring_start[v + 1] as usize);
+        let r = &ring[a..b];
+        let window: &[RingEntry; SHORT_RING] = ring[a..a + SHORT_RING].try_into().expect("the ring is padded");
         if r.is_empty() {
             continue;
         }
         let v = v as u32;
-        if general_only || !regular_ring(v, r, &mut walk) {
+        if general_only || !regular_ring(v, r, window, &mut walk) {
             general_ring(v, r, &mut walk);
         }
         if walk.current != EdgeTally::default() {
@@ -461,12 +469,12 @@ pub(crate) fn finish(
 /// proves every neighbour is the next vertex of at most one corner and the previous vertex of at
 /// most one, so the vertex has one fan and each of its edges one side, or two of opposite
 /// directions. Returns false, having recorded nothing, for any other vertex.
-fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
+fn regular_ring(v: u32, r: &[RingEntry], window: &[RingEntry; SHORT_RING], walk: &mut Walk) -> bool {
     let k = r.len();
     if k > LANES {
         return false;
     }
-    if closed_fan(r) {
+    if closed_fan(r, window) {
         // An interior vertex: every neighbour is the next vertex of one corner and the previous
         // vertex of another, so each edge has two sides of opposite directions.
         let mut interior = 0;
@@ -558,7 +566,36 @@ fn regular_ring(v: u32, r: &[RingEntry], walk: &mut Walk) -> bool {
 /// is a one-to-one map of the corners onto themselves. Since it goes to the *first* matching
 /// corner, no two corners share a next vertex (the later one could not be reached) and, being
 /// one-to-one, no two share a previous vertex: one fan, each edge with two opposite sides.
-fn closed_fan(r: &[RingEntry]) -> bool {
+///
+/// `window` is the ring followed by whatever comes after it, `SHORT_RING` entries in all. A ring
+/// that fits is searched by comparing all its next vertices at once (two SSE2 compares): on
+/// scanned meshes, whose neighbours come in no fixed order, a search that stops at the match
+/// mispredicts its exit at almost every corner.
+fn closed_fan(r: &[RingEntry], window: &[RingEntry; SHORT_RING]) -> bool {
+    let k = r.len();
+    if k > SHORT_RING {
+        return closed_fan_long(r);
+    }
+    // Lanes hold vertex indices; the cast to i32 keeps equality.
+    let next = i32x8::new(std::array::from_fn(|j| window[j][1] as i32));
+    let live = (1u32 << k) - 1;
+    let mut i = 0;
+    for step in 1..=k {
+        let prev = i32x8::splat(r[i][0] as i32);
+        let m = next.cmp_eq(prev).move_mask() as u32 & live;
+        if m == 0 {
+            return false;
+        }
+        i = m.trailing_zeros() as usize;
+        if i == 0 {
+            return step == k;
+        }
+    }
+    false
+}
+
+/// [`closed_fan`] for rings of more than [`SHORT_RING`] corners.
+fn closed_fan_long(r: &[RingEntry]) -> bool {
     let mut i = 0;
     for step in 1..=r.len() {
         let prev = r[i][0];
@@ -957,6 +994,69 @@ mod tests {
         assert!(plain.contains(&6) && plain.contains(&10) && !plain.contains(&8));
         assert_eq!(dups, plain);
         assert_eq!(non_finite, vec![7, 8, 9, 10]);
+    }
+
+    /// Rings short enough for the vector search and longer ones: a double cone whose two apexes
+    /// have `sides` neighbours; closed, with two faces moved onto a second top apex (two open
+    /// fans), with the apexes pinched into one vertex of two closed fans, and with a face flipped.
+    #[test]
+    fn fans_of_every_valence_agree() {
+        for sides in 3u32..=20 {
+            let (top, bottom) = (sides, sides + 1);
+            let mut pos: Vec<DVec3> = (0..sides)
+                .map(|i| {
+                    let a = f64::from(i) * std::f64::consts::TAU / f64::from(sides);
+                    DVec3::new(a.cos(), a.sin(), 0.0)
+                })
+                .collect();
+            pos.extend([DVec3::Z, -DVec3::Z]);
+            let mut faces: Vec<[u32; 3]> = Vec::new();
+            for i in 0..sides {
+                let j = (i + 1) % sides;
+                faces.push([i, j, top]);
+                faces.push([j, i, bottom]);
+            }
+            let build = |faces: &[[u32; 3]], pos: &[DVec3]| {
+                let mut m = Mesh::from_positions(pos.to_vec());
+                for f in faces {
+                    m.faces.push(f);
+                }
+                m
+            };
+            let closed = build(&faces, &pos);
+            all_paths_agree(&closed);
+            let r = check(&closed, &Options::default(), closed.vertex_count());
+            assert!(r.properties.watertight && r.properties.oriented, "{sides} sides");
+            assert_eq!(r.components[0].genus, Some(0));
+
+            // Two top faces moved onto a second apex at the same place: the top ring splits in two.
+            let mut split = faces.clone();
+            pos.push(DVec3::Z);
+            split[0][2] = sides + 2;
+            split[2][2] = sides + 2;
+            let m = build(&split, &pos);
+            all_paths_agree(&m);
+            assert!(!check(&m, &Options::default(), m.vertex_count()).properties.closed, "{sides} sides");
+
+            // A second double cone whose top apex is the first one's: a vertex of two closed fans.
+            let copy = sides + 3;
+            let mut pinched = faces.clone();
+            pinched.extend(faces.iter().map(|f| f.map(|i| if i == top { top } else { i + copy })));
+            let mut twice = pos.clone();
+            twice.extend(pos.iter().map(|p| *p + DVec3::X * 3.0));
+            let m = build(&pinched, &twice);
+            all_paths_agree(&m);
+            let r = check(&m, &Options::default(), m.vertex_count());
+            assert_eq!(r.counts.non_manifold_vertices, 1, "{sides} sides");
+            assert_eq!((r.counts.non_manifold_edges, r.counts.boundary_edges), (0, 0), "{sides} sides");
+
+            let mut flipped = faces.clone();
+            flipped[1].swap(0, 1);
+            let m = build(&flipped, &pos);
+            all_paths_agree(&m);
+            let r = check(&m, &Options::default(), m.vertex_count());
+            assert!(r.properties.watertight && !r.properties.oriented, "{sides} sides");
+        }
     }
 
     #[test]
