@@ -299,7 +299,9 @@ pub fn decode_level(
                 let keys = lattice::slot_corner_keys(slot.0, slot.1, k);
                 let cps = ROTATIONS[usize::from(r)];
                 let c = 4 * f;
-                pred[c..c + 4].copy_from_slice(&cps.map(|cp| keys[usize::from(cp)]));
+                for i in 0..4 {
+                    pred[c + i] = keys[usize::from(cps[i] & 3)];
+                }
                 if f < sub {
                     pos[c..c + 4].copy_from_slice(&cps);
                 }
@@ -674,8 +676,9 @@ fn finish(
                 let i = if lines { next_other } else { v };
                 next_other += 1;
                 let mut out = [0i64; 3];
+                let point = pr.point();
                 for a in 0..3 {
-                    out[a] = pr.point[a] + unzigzag(planes[a].get(i));
+                    out[a] = point[a] + unzigzag(planes[a].get(i));
                     if out[a].abs() > GRID_LIMIT {
                         return Err(invalid(format!("vertex {v} decodes outside the grid range (|q| > 2^28)")));
                     }

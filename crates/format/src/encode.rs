@@ -495,8 +495,9 @@ fn geometry(
             js.push(j);
             return Ok((t, Some(j)));
         }
+        let point = pr.point();
         for a in 0..3 {
-            res[a].push(zigzag(t[a] - pr.point[a]));
+            res[a].push(zigzag(t[a] - point[a]));
         }
         order.push(v as u32);
         Ok((t, None))

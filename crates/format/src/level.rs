@@ -199,7 +199,16 @@ impl Parent<'_> {
             }
             let (v, d) = slots[f];
             let sc = lattice::slot_corners(v, d);
-            let rot = best_rotation(|r, k| corners.get(face[k] as usize) == Some(&sc[rotated(r, k)]));
+            let at = |k: usize| corners.get(face[k] as usize);
+            let full = |r: u8| (0..4).all(|k| at(k) == Some(&sc[rotated(r, k)]));
+            // The common case: corner 0 names a slot corner and the rotation through it matches
+            // all four (then no other rotation can, so it is the first best).
+            let first = sc.iter().position(|c| at(0) == Some(c)).map(|t| t as u8);
+            let rot = match first {
+                Some(t) if full(t) => t,
+                Some(t) if full(t | 4) => t | 4,
+                _ => best_rotation(|r, k| at(k) == Some(&sc[rotated(r, k)])),
+            };
             let mut quad = [0u32; 4];
             for (k, &vi) in face.iter().enumerate() {
                 quad[rotated(rot, k)] = vi;
@@ -326,12 +335,29 @@ impl Line {
 /// What pass A or B predicts for one vertex.
 #[derive(Clone, Copy, Debug)]
 pub struct Prediction {
-    /// The point prediction (base plus local bias, or the neighbour predictor), clamped.
-    pub point: [i64; 3],
     /// In line mode: the vertex's prediction line.
     pub line: Option<Line>,
     /// The predicted line parameter (0 without a line).
     pub param: i64,
+    /// The base prediction, and (pass A) the sum and count of the counted neighbours' biases:
+    /// [`Prediction::point`] adds their local bias only when asked (a line vertex needs none).
+    base: [i64; 3],
+    bias_sum: [i64; 3],
+    bias_count: i64,
+}
+
+impl Prediction {
+    /// The point prediction (base plus local bias, or the neighbour predictor), clamped.
+    #[inline]
+    pub fn point(&self) -> [i64; 3] {
+        let mut p = self.base;
+        if self.bias_count > 0 {
+            for k in 0..3 {
+                p[k] += round_div(self.bias_sum[k].saturating_mul(3), 4 * self.bias_count);
+            }
+        }
+        clamp(p)
+    }
 }
 
 /// `S` of spec §6.3: four times the parent's bilinear point above `corner`. The slot's canonical
@@ -361,13 +387,8 @@ fn round_away(x: f64) -> i64 {
     }
     let i = x as i64;
     let frac = x - i as f64;
-    if frac >= 0.5 {
-        i + 1
-    } else if frac <= -0.5 {
-        i - 1
-    } else {
-        i
-    }
+    // Branch-free: the fraction's sign and size are data, not a pattern a predictor learns.
+    i + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
 }
 
 /// Reusable buffers of [`geometry_pass`]: a decoder keeps one across its levels, so that big
@@ -405,6 +426,9 @@ struct FaceNormal {
     nn4: f64,
     u: [f64; 3],
 }
+
+/// The normal of a face whose normal is not needed.
+const NO_NORMAL: FaceNormal = FaceNormal { nf: [0.0; 3], nn4: 0.0, u: [0.0; 3] };
 
 impl FaceNormal {
     #[inline]
@@ -482,6 +506,16 @@ pub fn geometry_pass<E>(
         let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
         let face = &indices[a..b];
         let n = face.len();
+        if let &[v0, v1, v2, v3] = face {
+            // Quads, the common case, unrolled.
+            for (v, prev, next) in [(v0, v3, v1), (v1, v0, v2), (v2, v1, v3), (v3, v2, v0)] {
+                let j = end[v as usize] as usize;
+                end[v as usize] += 1;
+                nbr[2 * j] = prev;
+                nbr[2 * j + 1] = next;
+            }
+            continue;
+        }
         let mut prev = face[n - 1];
         for i in 0..n {
             let v = face[i] as usize;
@@ -515,8 +549,8 @@ pub fn geometry_pass<E>(
                 faces.extend((0..pnf).map(|pf| FaceNormal::new(newell_normal(p.q, p.face(pf)), topo.line_shift)));
             }
         }
-        // The largest magnitude of any bias or parameter so far: sums of few small terms run in
-        // 32 bits.
+        // A bound on the magnitude of any bias or parameter so far: sums of few small terms run
+        // in 32 bits.
         let mut max_abs = 1i64;
         for v in 0..nv {
             let c = ctx[v];
@@ -525,11 +559,11 @@ pub fn geometry_pass<E>(
             }
             let f = ctx_face[v] as usize;
             let pf = topo.parents[f] as usize;
-            let fnorm = if want_normal { faces[pf] } else { FaceNormal::default() };
+            let fnorm = if want_normal { &faces[pf] } else { &NO_NORMAL };
             let pred = if lattice_mode {
                 let slots = p.slots.expect("lattice parent");
                 let corners = topo.vertex_corners.expect("lattice level");
-                lattice_pred(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, &fnorm)
+                lattice_pred(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, fnorm)
             } else {
                 let face = p.face(pf);
                 let n = face.len();
@@ -556,8 +590,9 @@ pub fn geometry_pass<E>(
             // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours;
             // `bias[u][5]` likewise for the line vertices among them.
             let near = &nbr[range(v)];
-            let sum = if (near.len() as i64).saturating_mul(max_abs) < 1 << 31 {
-                // No partial sum can leave 32 bits.
+            let sum = if (near.len() as i64).saturating_mul(max_abs) < 1 << 30 {
+                // Every term is below `max_abs + 1 <= 2 max_abs` in magnitude: no partial sum can
+                // leave 32 bits.
                 let mut acc = [0i32; 8];
                 for &u in near {
                     let b = &bias[u as usize];
@@ -586,24 +621,19 @@ pub fn geometry_pass<E>(
                 }
                 acc
             };
-            let count = sum[3];
-            let mut pred = base;
-            if count > 0 {
-                for k in 0..3 {
-                    pred[k] += round_div(sum[k].saturating_mul(3), 4 * count);
-                }
-            }
             let (line, param) = if lines {
                 let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
                 (Some(Line { base, u: fnorm.u }), jp)
             } else {
                 (None, 0)
             };
-            let (qv, j) = step(v, &Prediction { point: clamp(pred), line, param })?;
+            let pr = Prediction { line, param, base, bias_sum: [sum[0], sum[1], sum[2]], bias_count: sum[3] };
+            let (qv, j) = step(v, &pr)?;
             q[v] = qv;
             let (jv, on) = j.map_or((0, 0), |j| (j, 1));
             let b = [qv[0] - base[0], qv[1] - base[1], qv[2] - base[2]];
-            max_abs = max_abs.max(b[0].abs()).max(b[1].abs()).max(b[2].abs()).max(jv.abs());
+            // An upper bound of the largest magnitude (at most twice it): ORs, no compares.
+            max_abs |= (b[0] ^ b[0] >> 63) | (b[1] ^ b[1] >> 63) | (b[2] ^ b[2] >> 63) | (jv ^ jv >> 63);
             bias[v] = [b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0];
         }
     }
@@ -648,7 +678,7 @@ pub fn geometry_pass<E>(
         let line = topo.lines.then(|| {
             Line::new(base, fan_normal(&nbr[range(v)], q, base, |u| ctx[u] != NONE || u < v), topo.line_shift)
         });
-        q[v] = step(v, &Prediction { point: base, line, param: 0 })?.0;
+        q[v] = step(v, &Prediction { line, param: 0, base, bias_sum: [0; 3], bias_count: 0 })?.0;
     }
     Ok(())
 }
@@ -705,7 +735,7 @@ fn quad_normal(pq: &[[i64; 3]], quad: [u32; 4]) -> [f64; 3] {
 
 /// The lattice predictor `P` of spec §6.3 (`predictor` 0 or 1), given the parent face's normal
 /// (`fnorm`, used by predictor 0 only).
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn lattice_pred(
     pq: &[[i64; 3]],
@@ -717,6 +747,8 @@ fn lattice_pred(
     predictor: u8,
     fnorm: &FaceNormal,
 ) -> [i64; 3] {
+    // (`inline(always)`: called once per vertex, from one place; a call would pass its eight
+    // arguments through memory.)
     let p = quad_points(pq, quad);
     let s = bilinear_sum_of(&p, slot, corner);
     if predictor == PREDICTOR_BILINEAR || fnorm.nn4 == 0.0 {
