@@ -389,14 +389,22 @@ fn map_one_free(parents: &Cells, kids: &ChildMoments, x: DVec3, cache: &mut Look
     let c = (x / l).round();
     let c = [c.x as i64, c.y as i64, c.z as i64];
     let mut m = Moments::default();
+    // The children `c - 1` and `c` on each axis have one parent when `c` is odd, two when even:
+    // each distinct parent is looked up once.
+    let base = c.map(|a| (a - 1).div_euclid(2));
+    let mut found = [UNKNOWN; 8];
     for o in 0..8usize {
         let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
         if v.iter().any(|&a| a < 0 || a >= n) {
             continue;
         }
+        let k = (0..3).fold(0, |k, a| k | (((v[a] >> 1) - base[a]) as usize) << a);
         let v = v.map(|a| a as u32);
-        if let Some(p) = cache.find(parents, v.map(|a| a >> 1)) {
-            kids.add(p, v, x, &mut m);
+        if found[k] == UNKNOWN {
+            found[k] = cache.find(parents, v.map(|a| a >> 1)).map_or(ABSENT, |p| p as u32);
+        }
+        if found[k] != ABSENT {
+            kids.add(found[k] as usize, v, x, &mut m);
         }
     }
     if m.count < 3.0 {

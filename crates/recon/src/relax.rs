@@ -10,9 +10,9 @@
 //! neighbouring corners. An interior edge lies on two faces, so every neighbour of an interior
 //! vertex counts twice and the average is the plain one-ring centroid; at a boundary vertex the
 //! two boundary neighbours count once and the others twice. Each vertex pulls these sums from its
-//! face corners (a compressed list of corner incidences, in face order, 4 bytes per corner), so
-//! vertices are relaxed in parallel and every sum is added in the same order whatever the number
-//! of threads.
+//! face corners (a compressed list of each corner's two neighbouring corners, in face order, 8
+//! bytes per corner), so vertices are relaxed in parallel and every sum is added in the same
+//! order whatever the number of threads.
 
 use octowrap_geom::DVec3;
 use rayon::prelude::*;
@@ -25,7 +25,7 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
         return;
     }
     let n = positions.len();
-    // Corner incidences of every vertex (`4 f + k`), in face order.
+    // Corner incidences per vertex, in face order: `first[v]..first[v + 1]`.
     let mut first = vec![0u32; n + 1];
     for q in quads {
         for &v in q {
@@ -35,13 +35,14 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
     for i in 0..n {
         first[i + 1] += first[i];
     }
-    let mut incidences = vec![0u32; 4 * quads.len()];
+    // The two neighbouring corners of every corner incidence (8 bytes per corner).
+    let mut neighbours = vec![[0u32; 2]; 4 * quads.len()];
     {
         let mut fill = first.clone();
-        for (f, q) in quads.iter().enumerate() {
+        for q in quads {
             for (k, &v) in q.iter().enumerate() {
                 let at = &mut fill[v as usize];
-                incidences[*at as usize] = (4 * f + k) as u32;
+                neighbours[*at as usize] = [q[(k + 1) % 4], q[(k + 3) % 4]];
                 *at += 1;
             }
         }
@@ -50,16 +51,14 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
     for _ in 0..passes {
         let old: &[DVec3] = positions;
         next.par_iter_mut().enumerate().for_each(|(v, out)| {
-            let corners = &incidences[first[v] as usize..first[v + 1] as usize];
+            let around = &neighbours[first[v] as usize..first[v + 1] as usize];
             *out = match planes[v] {
-                Some(plane) if !corners.is_empty() => {
+                Some(plane) if !around.is_empty() => {
                     let mut sum = DVec3::ZERO;
-                    for &c in corners {
-                        let q = &quads[(c / 4) as usize];
-                        let k = (c % 4) as usize;
-                        sum += old[q[(k + 1) % 4] as usize] + old[q[(k + 3) % 4] as usize];
+                    for &[a, b] in around {
+                        sum += old[a as usize] + old[b as usize];
                     }
-                    plane.project(sum / f64::from(2 * corners.len() as u32))
+                    plane.project(sum / f64::from(2 * around.len() as u32))
                 }
                 _ => old[v],
             };
