@@ -707,7 +707,7 @@ fn fan_normal(near: &[u32], q: &[[i64; 3]], base: [i64; 3], counts: impl Fn(usiz
 }
 
 /// `[f(a[0]), f(a[1]), f(a[2])]`: inlined where std's array `map` was not, in the hot loops.
-#[inline]
+#[inline(always)]
 pub(crate) fn map3<T: Copy, U>(a: [T; 3], f: impl Fn(T) -> U) -> [U; 3] {
     [f(a[0]), f(a[1]), f(a[2])]
 }
@@ -718,6 +718,7 @@ fn quad_points(pq: &[[i64; 3]], quad: [u32; 4]) -> [[i64; 3]; 4] {
     [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]]
 }
 
+#[inline(always)]
 fn clamp(p: [i64; 3]) -> [i64; 3] {
     map3(p, |x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
 }
