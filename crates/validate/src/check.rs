@@ -11,10 +11,12 @@
 //!
 //! Most vertices of most meshes are regular: stepping from each corner to the corner across its
 //! incoming edge walks the whole ring once. [`regular_ring`] recognises such a vertex with a few
-//! compares and decides it directly; any other vertex goes through [`general_ring`], which sorts
-//! the ring's edge sides and joins corners with a small union-find. Both give the same answer
-//! wherever both apply: a test runs the general path on every vertex and compares, and another
-//! compares the whole report with a plain edge-sorting implementation on random broken meshes.
+//! compares and decides it directly (an interior vertex by [`closed_fan`] alone, with one vector
+//! compare per corner in rings of up to 8 corners); any other vertex goes through
+//! [`general_ring`], which sorts the ring's edge sides and joins corners with a small union-find.
+//! Both give the same answer wherever both apply: a test runs the general path on every vertex
+//! and compares, and another compares the whole report with a plain edge-sorting implementation
+//! on random broken meshes.
 //!
 //! Components come from a union-find over vertices joined by edges; duplicate faces from the
 //! vertices where two corners have the same two neighbours. Only what is irregular is kept per
