@@ -568,7 +568,7 @@ pub fn decode_level(
     )
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::too_many_lines)] // spec §5.8 and §6 in order
 fn finish(
     k: u32,
     (mode, predictor, lines, line_shift): (Mode, u8, bool, u32),

@@ -352,8 +352,8 @@ impl Prediction {
     pub fn point(&self) -> [i64; 3] {
         let mut p = self.base;
         if self.bias_count > 0 {
-            for k in 0..3 {
-                p[k] += round_div(self.bias_sum[k].saturating_mul(3), 4 * self.bias_count);
+            for (x, s) in p.iter_mut().zip(self.bias_sum) {
+                *x += round_div(s.saturating_mul(3), 4 * self.bias_count);
             }
         }
         clamp(p)
@@ -707,6 +707,7 @@ fn fan_normal(near: &[u32], q: &[[i64; 3]], base: [i64; 3], counts: impl Fn(usiz
 }
 
 /// `[f(a[0]), f(a[1]), f(a[2])]`: inlined where std's array `map` was not, in the hot loops.
+#[allow(clippy::inline_always)] // measured: a call per coordinate triple in the hot loops otherwise
 #[inline(always)]
 pub(crate) fn map3<T: Copy, U>(a: [T; 3], f: impl Fn(T) -> U) -> [U; 3] {
     [f(a[0]), f(a[1]), f(a[2])]
@@ -718,6 +719,7 @@ fn quad_points(pq: &[[i64; 3]], quad: [u32; 4]) -> [[i64; 3]; 4] {
     [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]]
 }
 
+#[allow(clippy::inline_always)] // as map3
 #[inline(always)]
 fn clamp(p: [i64; 3]) -> [i64; 3] {
     map3(p, |x| x.clamp(-GRID_LIMIT, GRID_LIMIT))
@@ -736,8 +738,8 @@ fn quad_normal(pq: &[[i64; 3]], quad: [u32; 4]) -> [f64; 3] {
 
 /// The lattice predictor `P` of spec §6.3 (`predictor` 0 or 1), given the parent face's normal
 /// (`fnorm`, used by predictor 0 only).
+#[allow(clippy::inline_always, clippy::too_many_arguments)] // see below
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn lattice_pred(
     pq: &[[i64; 3]],
     quad: [u32; 4],

@@ -116,3 +116,55 @@ fn bad_inputs_are_refused() {
     m.vertices.positions[0].x = f64::NAN;
     assert!(encode(&Hierarchy::single(m), &EncodeOptions::default()).is_err());
 }
+
+/// Residuals and local biases near the grid's range (spec §6.2's sums leave 32 bits): the
+/// vertices of every other level moved by up to 0.45 of the cube on a 28-bit grid, so that
+/// neighbour sums take the geometry pass's 64-bit path as well as its 32-bit one.
+#[test]
+fn huge_residuals_round_trip() {
+    let mut rng = octowrap_format::synthetic::Rng::new(7);
+    let mut h = cube_hierarchy(4, Edits::default(), 3);
+    for (k, level) in h.levels.iter_mut().enumerate() {
+        let noise = if k % 2 == 0 { 0.9 } else { 1e-6 };
+        for p in &mut level.mesh.vertices.positions {
+            for a in 0..3 {
+                p[a] = 0.5 * p[a] + noise * (rng.f64() - 0.5);
+            }
+        }
+    }
+    for bits in [28, 12] {
+        check(&h, &EncodeOptions::with_quantization(Quantization::Bits(bits)));
+    }
+}
+
+/// The decoder keeps its working buffers per thread: decoding files of different sizes and kinds
+/// one after another, with a failure between them, gives what a fresh thread gives.
+#[test]
+fn decodes_on_one_thread_match_fresh_threads() {
+    let q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    let files = [
+        encode(&cube_hierarchy(6, Edits::default(), 1), &q12).unwrap(),
+        encode(&without_lattice(cube_hierarchy(4, Edits::default(), 2)), &q12).unwrap(),
+        encode(&cube_hierarchy(3, Edits::none(), 0), &EncodeOptions::with_quantization(Quantization::Exact)).unwrap(),
+    ];
+    let fresh: Vec<_> = files
+        .iter()
+        .map(|b| {
+            let b = b.clone();
+            std::thread::spawn(move || decode(&b[..], &DecodeOptions::default()).unwrap()).join().unwrap()
+        })
+        .collect();
+    for round in 0..2 {
+        for (i, b) in files.iter().enumerate() {
+            assert_eq!(decode(&b[..], &DecodeOptions::default()).unwrap(), fresh[i], "file {i}, round {round}");
+            // A corrupt last level (resealed, so that its decoding starts): whether it fails half-way
+            // or decodes, the next decode must not see its leftovers.
+            let mut payloads = octowrap_format::fuzzing::payloads(b).unwrap();
+            let last = payloads.last_mut().unwrap();
+            let at = last.len() * (round + 1) / 3;
+            last[at] ^= 0x5a;
+            let bad = octowrap_format::fuzzing::reseal(b, &payloads, None).unwrap();
+            let _ = decode(&bad[..], &DecodeOptions::default());
+        }
+    }
+}
