@@ -69,8 +69,13 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
     }
     // Edge point of every face edge.
     let mut edge_vertex = vec![0u32; 4 * quads.len()];
-    let mut out_corners: Vec<[u32; 3]> = corners.iter().map(|c| c.map(|x| 2 * x)).collect();
-    let mut out_pos: Vec<DVec3> = positions.to_vec();
+    // At most one edge point per face edge and one face point per face: reserved up front so
+    // that the vectors never move (pages reserved but never written are not resident).
+    let most = corners.len() + 5 * quads.len();
+    let mut out_corners: Vec<[u32; 3]> = Vec::with_capacity(most);
+    out_corners.par_extend(corners.par_iter().map(|c| c.map(|x| 2 * x)));
+    let mut out_pos: Vec<DVec3> = Vec::with_capacity(most);
+    out_pos.par_extend(positions.par_iter().copied());
     for (a, w) in first.windows(2).enumerate() {
         let group = &edges[w[0] as usize..w[1] as usize];
         let mut i = 0;
@@ -96,33 +101,30 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
         std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2)
     }));
     out_pos.par_extend(quads.par_iter().map(|q| q.iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25));
-    let mut quads_out: Vec<[u32; 4]> = quads
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(f, q)| {
-            let centre = base + f as u32;
-            let ev = &edge_vertex[4 * f..4 * f + 4];
-            (0..4).map(move |k| [q[k], ev[k], centre, ev[(k + 3) % 4]])
-        })
-        .collect();
+    let mut quads_out: Vec<[u32; 4]> = vec![[0; 4]; 4 * quads.len()];
+    quads_out.par_chunks_mut(4).zip(quads.par_iter()).enumerate().for_each(|(f, (out, q))| {
+        let centre = base + f as u32;
+        let ev = &edge_vertex[4 * f..4 * f + 4];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = [q[k], ev[k], centre, ev[(k + 3) % 4]];
+        }
+    });
     drop(edge_vertex);
-    let slots_out: Vec<u64> = slots
-        .par_iter()
-        .flat_map_iter(|&s| {
-            let (code, d) = unslot(s);
-            let pc = morton::decode(code);
-            let a = axis(d);
-            let (b, cax) = plane_axes(a);
-            (0..4).map(move |k| {
-                let o = corner_offset(d, k);
-                let mut child = pc.map(|x| 2 * x);
-                child[b] += o[0];
-                child[cax] += o[1];
-                child[a] += u32::from(sign(d) > 0);
-                slot(morton::encode(child[0], child[1], child[2]), d)
-            })
-        })
-        .collect();
+    let mut slots_out: Vec<u64> = vec![0; 4 * slots.len()];
+    slots_out.par_chunks_mut(4).zip(slots.par_iter()).for_each(|(out, &s)| {
+        let (code, d) = unslot(s);
+        let pc = morton::decode(code);
+        let a = axis(d);
+        let (b, cax) = plane_axes(a);
+        for (k, o) in out.iter_mut().enumerate() {
+            let off = corner_offset(d, k);
+            let mut child = pc.map(|x| 2 * x);
+            child[b] += off[0];
+            child[cax] += off[1];
+            child[a] += u32::from(sign(d) > 0);
+            *o = slot(morton::encode(child[0], child[1], child[2]), d);
+        }
+    });
     let origins: Vec<FaceOrigin> = (0..4 * quads.len())
         .into_par_iter()
         .map(|i| FaceOrigin::Subface { parent: (i / 4) as u32, quadrant: Quadrant((i % 4) as u8) })
