@@ -227,6 +227,8 @@ pub fn decode_level(
             Ok(r)
         };
         let mut corner = 0usize;
+        // The range and count of the predicted names, when every corner has one (lattice levels).
+        let mut name_bounds = None;
         let mut slots: Vec<([u32; 3], u8)> = Vec::new();
         if mode == Mode::Lattice {
             parent_quads = pp.canonical_quads().map_err(|f| {
@@ -295,8 +297,12 @@ pub fn decode_level(
                 );
             }
             out.offsets.extend((1..=nf as u32).map(|f| 4 * f));
+            let (mut lo, mut hi) = (u64::MAX, 0);
             for (f, (slot, &r)) in slots.iter().zip(rots).enumerate() {
                 let keys = lattice::slot_corner_keys(slot.0, slot.1, k);
+                // A slot's smallest and largest corner keys are its canonical corners 0 and 2.
+                lo = lo.min(keys[0]);
+                hi = hi.max(keys[2]);
                 let cps = ROTATIONS[usize::from(r)];
                 let c = 4 * f;
                 for i in 0..4 {
@@ -306,6 +312,7 @@ pub fn decode_level(
                     pos[c..c + 4].copy_from_slice(&cps);
                 }
             }
+            name_bounds = (nf > 0).then_some((lo, hi, nc));
         } else {
             let (edge_of_corner, ne) = number_edges(pp.offsets, pp.indices);
             let pv = p.q.len().max(p.exact.len()) as u64;
@@ -363,7 +370,7 @@ pub fn decode_level(
         }
         // §5.5: the name set and splits.
         // Predicted names, sorted once (radix); `name_of[c]` = the index of corner c's name.
-        sort_names(pred, names, name_of, bits, rank);
+        sort_names(pred, name_bounds, names, name_of, bits, rank);
         let r = &mut st[s::EXTRA_NAMES];
         let ne = r.varint_max(nv as u64, "extra name count")? as usize;
         let mut extras = Vec::with_capacity(ne);
@@ -436,7 +443,7 @@ pub fn decode_level(
         }
         // §5.6: corners to vertices.
         let nexc = st[s::EXCEPTIONS].varint_max(nc as u64, "exception count")? as usize;
-        let explicit = pred.contains(&u64::MAX);
+        let explicit = name_bounds.is_none() && pred.contains(&u64::MAX);
         if nsplit == 0 && !explicit {
             // One vertex per name, numbered as the names: corner c's vertex is its name's index,
             // then the exceptions.
@@ -695,20 +702,31 @@ fn finish(
 }
 
 /// The sorted distinct predicted names (into `names`), and per corner the index of its name
-/// (into `name_of`; `NONE` for corners without a prediction). Dense names go through a bitmap
+/// (into `name_of`; `NONE` for corners without a prediction). `bounds`: the smallest and largest
+/// name and the number of predicted corners, when the caller knows them (every corner predicted). Dense names go through a bitmap
 /// with ranks (`bits`, `rank`: scratch); others through an LSD radix sort on 11-bit digits,
 /// skipping the digits where all names agree, with (name - smallest name, corner) packed in one
 /// `u64` when both fit. Linear in the corner count either way.
-fn sort_names(pred: &[u64], names: &mut Vec<u64>, name_of: &mut Vec<u32>, bits: &mut Vec<u64>, rank: &mut Vec<u32>) {
-    let (mut lo, mut hi) = (u64::MAX, 0u64);
-    let mut n = 0usize;
-    for &p in pred {
-        if p != u64::MAX {
-            lo = lo.min(p);
-            hi = hi.max(p);
-            n += 1;
+fn sort_names(
+    pred: &[u64],
+    bounds: Option<(u64, u64, usize)>,
+    names: &mut Vec<u64>,
+    name_of: &mut Vec<u32>,
+    bits: &mut Vec<u64>,
+    rank: &mut Vec<u32>,
+) {
+    let (lo, hi, n) = bounds.unwrap_or_else(|| {
+        let (mut lo, mut hi) = (u64::MAX, 0u64);
+        let mut n = 0usize;
+        for &p in pred {
+            if p != u64::MAX {
+                lo = lo.min(p);
+                hi = hi.max(p);
+                n += 1;
+            }
         }
-    }
+        (lo, hi, n)
+    });
     names.clear();
     name_of.clear();
     name_of.resize(pred.len(), NONE);
@@ -823,7 +841,14 @@ mod tests {
     /// [`sort_names`] on buffers that hold something already.
     fn sorted(pred: &[u64]) -> (Vec<u64>, Vec<u32>) {
         let (mut names, mut name_of) = (vec![7], vec![1, 2]);
-        sort_names(pred, &mut names, &mut name_of, &mut vec![5; 3], &mut Vec::new());
+        sort_names(pred, None, &mut names, &mut name_of, &mut vec![5; 3], &mut Vec::new());
+        if !pred.is_empty() && !pred.contains(&u64::MAX) {
+            // With the bounds given, as lattice levels do.
+            let bounds = (*pred.iter().min().unwrap(), *pred.iter().max().unwrap(), pred.len());
+            let (mut n2, mut of2) = (Vec::new(), Vec::new());
+            sort_names(pred, Some(bounds), &mut n2, &mut of2, &mut Vec::new(), &mut Vec::new());
+            assert_eq!((&n2, &of2), (&names, &name_of));
+        }
         (names, name_of)
     }
 
