@@ -431,8 +431,8 @@ pub fn reconstruct_with(
     if opts.sparse == SparseMode::Wrap {
         trusted = finest;
     }
-    // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, levels
-    // k - 1 and k - 2. Nothing deeper is kept (or built).
+    // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, level
+    // k - 1 (its points, summed per child). Nothing deeper is kept (or built).
     let keep = (trusted + 1).max(finest.saturating_sub(1)).min(MAX_LEVEL);
     while tree.depth() > keep {
         tree.levels.pop();
