@@ -80,6 +80,7 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads one byte.
+    #[inline]
     pub fn u8(&mut self) -> Result<u8, Error> {
         let Some(&b) = self.data.get(self.pos) else {
             return Err(self.invalid("stream ends early"));
@@ -105,7 +106,15 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads an unsigned LEB128 varint of at most 10 bytes whose value fits in 64 bits.
+    #[inline]
     pub fn varint(&mut self) -> Result<u64, Error> {
+        // One byte, the common case.
+        if let Some(&b) = self.data.get(self.pos) {
+            if b < 0x80 {
+                self.pos += 1;
+                return Ok(u64::from(b));
+            }
+        }
         let mut v = 0u64;
         for i in 0..10 {
             let b = self.u8()?;
