@@ -293,6 +293,9 @@ pub(crate) struct Outcome {
     pub pos: Vec<DVec3>,
     /// The largest error (mean squared distance) of an applied collapse.
     pub max_cost: f64,
+    /// For each vertex, the surviving vertex it was collapsed into (itself when it survived or
+    /// is unused).
+    pub rep: Vec<u32>,
     pub collapses: usize,
     pub passes: usize,
     pub frozen: usize,
@@ -300,19 +303,25 @@ pub(crate) struct Outcome {
 }
 
 /// Collapses edges of `tris` until at most `target` triangles remain or every collapse would cost
-/// more than `max_cost`. `progress` gets the live triangle count after each pass.
+/// more than `max_cost`. Vertices marked in `keep` (empty: none) are treated as frozen: no edge at
+/// them collapses. `progress` gets the live triangle count after each pass.
 pub(crate) fn run(
     mut pos: Vec<DVec3>,
     mut tris: Vec<[u32; 3]>,
     lock_border: bool,
+    keep: &[bool],
     target: usize,
     max_cost: f64,
     progress: &mut dyn FnMut(usize),
 ) -> Outcome {
     let n = pos.len();
     let mut adj = Csr::build(n, &tris);
-    let (kind, mut quadrics) = kinds_and_quadrics(&pos, &tris, &adj, lock_border);
+    let (mut kind, mut quadrics) = kinds_and_quadrics(&pos, &tris, &adj, lock_border);
     let frozen = kind.iter().filter(|&&k| k == Kind::Frozen).count();
+    for (k, _) in kind.iter_mut().zip(keep).filter(|(_, keep)| **keep) {
+        *k = Kind::Frozen;
+    }
+    let mut rep: Vec<u32> = (0..n as u32).collect();
     let mut touched = vec![0u32; n];
     let mut scratch = Marks { mark: vec![0; n], stamp: 0 };
     let (mut reached, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
@@ -392,6 +401,7 @@ pub(crate) fn run(
             quadrics[a as usize] = quadrics[a as usize].sum(&quadrics[b as usize]);
             touched[a as usize] = pass;
             touched[b as usize] = pass;
+            rep[b as usize] = a;
             reached = reached.max(cost);
             applied += 1;
         }
@@ -403,7 +413,20 @@ pub(crate) fn run(
         }
         adj = Csr::build(n, &tris);
     };
-    Outcome { tris, pos, max_cost: reached, collapses, passes, frozen, stop }
+    resolve(&mut rep);
+    Outcome { tris, pos, max_cost: reached, rep, collapses, passes, frozen, stop }
+}
+
+/// Points each removed vertex at the survivor it went into (`rep` holds the vertex each one went
+/// into directly, which may have gone later).
+fn resolve(rep: &mut [u32]) {
+    for v in 0..rep.len() {
+        let mut r = rep[v];
+        while rep[r as usize] != r {
+            r = rep[r as usize];
+        }
+        rep[v] = r;
+    }
 }
 
 /// One sort key per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns

@@ -18,10 +18,10 @@
 //!   in the face's own order. Only complete faces can stand for their region.
 //! * The **quad** of a complete face: its four corner vertices at their finest-level positions,
 //!   split along the shorter diagonal.
-//! * **Distance of `f` to the finest level**: the larger of (a) the largest distance from a
-//!   vertex of the region to the quad and (b) the largest distance from the quad's samples (the
-//!   centroids of the 3-fold subdivision of each of its two triangles, 18 points) to the region's
-//!   triangles. Exact point-triangle distances, brute force over the region.
+//! * **Distance of `f` to the finest level**: the symmetric Hausdorff distance between the quad
+//!   and the region's triangles (quads split along their shorter diagonal, polygons fanned),
+//!   certified: the upper bound of `hausdorff.rs`, which no point of either surface exceeds,
+//!   between samples included, and which is within 1 % of a distance actually found.
 //!
 //! # The cut
 //! Top-down from every root (level-0 faces and created faces): a complete face whose distance is
@@ -52,7 +52,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::Error;
-use crate::metrics::point_triangle_squared;
+use crate::hausdorff::Tolerance;
 
 /// A camera for view-dependent cuts, read from JSON (see [`Camera::from_json`]).
 ///
@@ -232,11 +232,12 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     let kinds = crate::collapse::classify(fpos.len(), &tris, &adj, false);
     let defect: Vec<bool> = kinds.iter().map(|&k| k == crate::collapse::Kind::Frozen).collect();
     let faces_of = crate::collapse::Csr::build_polygons(fpos.len(), &fine.faces);
+    let tol = crate::hausdorff::tolerance(fine.vertices.bounds().diagonal());
     let mut info: Vec<Vec<Option<Info>>> = (0..=last).map(|_| Vec::new()).collect();
     for j in (0..last).rev() {
         let (below, here) = info.split_at_mut(j + 1);
         let next = &here[0];
-        let ctx = Context { h, fpos, last, next, uses: &uses, defect: &defect };
+        let ctx = Context { h, fpos, last, next, uses: &uses, defect: &defect, tol };
         below[j] =
             (0..h.levels[j].mesh.faces.len()).into_par_iter().map(|f| ctx.complete(j, f, children[j][f])).collect();
     }
@@ -296,10 +297,8 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
                     if poly.len() == 4 {
                         return i.error;
                     }
-                    let p = |v: u32| fpos[v as usize];
-                    let fan: Vec<[DVec3; 3]> =
-                        poly.windows(2).skip(1).map(|w| [p(poly[0]), p(w[0]), p(w[1])]).collect();
-                    region_distance(fpos, &fine.faces, &i.region, &fan)
+                    let fan: Vec<[u32; 3]> = face_triangles(fpos, &poly).collect();
+                    region_distance(fpos, &fine.faces, &i.region, &fan, tol)
                 }
                 _ => 0.0,
             })
@@ -394,6 +393,8 @@ struct Context<'a> {
     uses: &'a [u32],
     /// Non-manifold finest vertices.
     defect: &'a [bool],
+    /// Tightness of the region distances.
+    tol: Tolerance,
 }
 
 impl Context<'_> {
@@ -429,14 +430,8 @@ impl Context<'_> {
         if !self.is_disk(fine, &region, &boundary) {
             return None;
         }
-        let p = |v: u32| self.fpos[v as usize];
-        let [a, b, c, d] = corners.map(p);
-        let quad = if a.distance_squared(c) <= b.distance_squared(d) {
-            [[a, b, c], [a, c, d]]
-        } else {
-            [[a, b, d], [b, c, d]]
-        };
-        let error = region_distance(self.fpos, fine, &region, &quad);
+        let quad: Vec<[u32; 3]> = face_triangles(self.fpos, &corners).collect();
+        let error = region_distance(self.fpos, fine, &region, &quad, self.tol);
         let bounds = Aabb::from_points(boundary.iter().map(|&v| &self.fpos[v as usize]));
         Some(Info { corners, region, boundary, error, bounds })
     }
@@ -473,41 +468,42 @@ impl Context<'_> {
     }
 }
 
-/// The distance between the triangles `surface` and the finest faces `region` (see the module
-/// docs): the larger of the largest distance from a region vertex to `surface`, and the largest
-/// distance from the centroids of the 3-fold subdivision of each triangle of `surface` to the
-/// region's triangles.
-fn region_distance(fpos: &[DVec3], fine: &FaceList, region: &[u32], surface: &[[DVec3; 3]]) -> f64 {
-    let p = |v: u32| fpos[v as usize];
-    let mut region_tris: Vec<[DVec3; 3]> = Vec::with_capacity(region.len() * 2);
-    let mut worst = 0.0f64;
-    let to_surface = |q: DVec3| surface.iter().map(|t| point_triangle_squared(q, t)).fold(f64::INFINITY, f64::min);
+/// The distance between the surface `surface` (triangles over finest vertices) and the finest
+/// faces `region` (see the module docs): the certified symmetric Hausdorff distance's upper bound
+/// (`hausdorff.rs`), computed over the region's own vertices.
+fn region_distance(fpos: &[DVec3], fine: &FaceList, region: &[u32], surface: &[[u32; 3]], tol: Tolerance) -> f64 {
+    let mut local: Vec<u32> = region.iter().flat_map(|&g| fine.face(g as usize).iter().copied()).collect();
+    local.extend(surface.iter().flatten());
+    local.sort_unstable();
+    local.dedup();
+    let at = |v: u32| local.binary_search(&v).map_or(0, |i| i as u32);
+    let pos: Vec<DVec3> = local.iter().map(|&v| fpos[v as usize]).collect();
+    let mut region_tris = Vec::with_capacity(region.len() * 2);
     for &g in region {
         let face = fine.face(g as usize);
-        let mut m = Mesh::from_positions(face.iter().map(|&v| p(v)).collect());
-        m.faces.push_iter(0..face.len() as u32);
-        region_tris.extend(m.triangles().into_iter().map(|t| t.map(|i| m.vertices.positions[i as usize])));
-        for &v in face {
-            worst = worst.max(to_surface(p(v)));
-        }
+        region_tris.extend(face_triangles(fpos, face).map(|t| t.map(at)));
     }
-    for t in surface {
-        let (e1, e2) = ((t[1] - t[0]) / 3.0, (t[2] - t[0]) / 3.0);
-        for i in 0..3 {
-            for k in 0..3 - i {
-                let (fi, fk) = (f64::from(i), f64::from(k));
-                let mut pts = vec![t[0] + e1 * (fi + 1.0 / 3.0) + e2 * (fk + 1.0 / 3.0)];
-                if i + k < 2 {
-                    pts.push(t[0] + e1 * (fi + 2.0 / 3.0) + e2 * (fk + 2.0 / 3.0));
-                }
-                for s in pts {
-                    let d = region_tris.iter().map(|r| point_triangle_squared(s, r)).fold(f64::INFINITY, f64::min);
-                    worst = worst.max(d);
-                }
-            }
-        }
-    }
-    worst.sqrt()
+    let surface: Vec<[u32; 3]> = surface.iter().map(|t| t.map(at)).collect();
+    crate::hausdorff::symmetric(&pos, &region_tris, &pos, &surface, tol).upper
+}
+
+/// The triangles of one face as [`Mesh::triangles`] makes them: a quad split along its shorter
+/// diagonal, other polygons fanned from their first corner.
+fn face_triangles<'a>(fpos: &'a [DVec3], face: &'a [u32]) -> impl Iterator<Item = [u32; 3]> + 'a {
+    let quad = if let &[a, b, c, d] = face {
+        let p = |v: u32| fpos[v as usize];
+        Some(if p(a).distance_squared(p(c)) <= p(b).distance_squared(p(d)) {
+            [[a, b, c], [a, c, d]]
+        } else {
+            [[a, b, d], [b, c, d]]
+        })
+    } else {
+        None
+    };
+    let fan = face.split_first().filter(|_| quad.is_none()).map(|(&first, rest)| (first, rest));
+    quad.into_iter()
+        .flatten()
+        .chain(fan.into_iter().flat_map(|(first, rest)| rest.windows(2).map(move |w| [first, w[0], w[1]])))
 }
 
 /// The boundary loop of `region` (one simple loop through the corners in order, starting at

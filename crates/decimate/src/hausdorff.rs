@@ -10,8 +10,8 @@
 //! and symmetric definitions.
 //!
 //! # Bounds of one piece
-//! A piece is a triangle `t` of the `from` surface (or a part of one from a 4-fold midpoint
-//! split) with corners `pᵢ`, their exact distances `dᵢ` to the `to` surface (a BVH query) and
+//! A piece is a triangle `t` of the `from` surface (or a part of one from longest-edge
+//! bisection) with corners `pᵢ`, their exact distances `dᵢ` to the `to` surface (a BVH query) and
 //! their nearest triangles `Tᵢ`. Every point of `t` is within the smaller of:
 //! * **Lipschitz**: `max dᵢ + ρ`, `ρ` the largest distance from the centroid to a corner (the
 //!   distance to a set is 1-Lipschitz, and every point of `t` is within `ρ` of some corner:
@@ -20,14 +20,16 @@
 //!   `t` is at a corner: `maxᵢ d(pᵢ, T)` for each `T` among the `Tᵢ`; and when two of them share
 //!   an edge, `t` is split by the plane through that edge bisecting the two triangles' in-plane
 //!   directions, each side bounded by its own triangle at the side's corners (this settles the
-//!   pieces that straddle an edge of a flat region in one step).
+//!   pieces that straddle an edge of a flat region in one step); the same with each `Tᵢ` and the
+//!   triangles across its edges.
 //!
 //! # The search
 //! `lower` is the largest exact corner distance found. A piece whose bound is at most
-//! `lower · (1 + relative) + absolute` is settled; the others are split in four (three new
-//! corner queries, seeded with a neighbouring corner's nearest triangle) and tried again, so the
+//! `lower · (1 + relative) + absolute` is settled; the others are split in two at the midpoint of
+//! their longest edge (one new corner query, seeded with an end's nearest triangle) and tried
+//! again, so the
 //! result satisfies `lower ≤ true distance ≤ upper ≤ lower · (1 + relative) + absolute`. A piece
-//! 40 splits deep, or any piece once the pieces in flight exceed a budget, is settled with its
+//! 80 splits deep, or any piece once the pieces in flight exceed a budget, is settled with its
 //! bound as it is: `upper` is then still a true bound, only looser ([`Certified::converged`] is
 //! false). Each round runs in parallel into ordered arrays and maxima are exact, so the result
 //! does not depend on the thread count.
@@ -57,16 +59,16 @@ pub(crate) struct Tolerance {
     pub absolute: f64,
 }
 
-/// The tolerance used throughout the crate: 1 % relative, `1e-9` of `diagonal` absolute.
+/// The tolerance used throughout the crate: 1 % relative, `1e-7` of `diagonal` absolute.
 pub(crate) fn tolerance(diagonal: f64) -> Tolerance {
-    Tolerance { relative: 0.01, absolute: 1e-9 * diagonal }
+    Tolerance { relative: 0.01, absolute: 1e-7 * diagonal }
 }
 
 /// Deepest split of one input triangle.
-const MAX_DEPTH: u8 = 40;
+const MAX_DEPTH: u8 = 80;
 
 /// Pieces in flight in one round before the search gives up tightening.
-const BUDGET: usize = 8_000_000;
+const BUDGET: usize = 200_000;
 
 /// A triangle set as positions and indexed triangles, with a BVH over them.
 struct Side<'a> {
@@ -74,23 +76,66 @@ struct Side<'a> {
     tris: &'a [[u32; 3]],
     corners: &'a Triangles,
     bvh: &'a Bvh<'a>,
+    /// The triangle across each edge `k` (`tris[t][k] -> tris[t][k + 1]`), when exactly one.
+    across: Vec<[u32; 3]>,
+}
+
+/// The triangle across each edge of each triangle (see [`Side::across`]).
+fn across(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let key = |u: u32, v: u32| (u64::from(u.min(v)) << 32) | u64::from(u.max(v));
+    let mut edges: Vec<(u64, u32)> = tris
+        .iter()
+        .enumerate()
+        .flat_map(|(t, tri)| (0..3).map(move |k| (key(tri[k], tri[(k + 1) % 3]), t as u32)))
+        .collect();
+    edges.par_sort_unstable();
+    let mut out = vec![[u32::MAX; 3]; tris.len()];
+    for run in edges.chunk_by(|a, b| a.0 == b.0) {
+        if let &[(e, t1), (_, t2)] = run {
+            for (t, o) in [(t1, t2), (t2, t1)] {
+                let tri = tris[t as usize];
+                if let Some(k) = (0..3).find(|&k| key(tri[k], tri[(k + 1) % 3]) == e) {
+                    out[t as usize][k] = o;
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The certified symmetric Hausdorff distance between triangles `ta` over `pa` and `tb` over `pb`
 /// (see the module docs). A side without triangles is at infinite distance from a side with some,
 /// and two empty sides at zero.
 pub(crate) fn symmetric(pa: &[DVec3], ta: &[[u32; 3]], pb: &[DVec3], tb: &[[u32; 3]], tol: Tolerance) -> Certified {
+    symmetric_over(pa, ta, pb, tb, tol, f64::INFINITY).0
+}
+
+/// [`symmetric`], and the triangles of each side where a point farther than `over` from the other
+/// side was found (sorted, without repeats).
+pub(crate) fn symmetric_over(
+    pa: &[DVec3],
+    ta: &[[u32; 3]],
+    pb: &[DVec3],
+    tb: &[[u32; 3]],
+    tol: Tolerance,
+    over: f64,
+) -> (Certified, [Vec<u32>; 2]) {
     if ta.is_empty() || tb.is_empty() {
         let d = if ta.is_empty() && tb.is_empty() { 0.0 } else { f64::INFINITY };
-        return Certified { lower: d, upper: d, converged: true };
+        return (Certified { lower: d, upper: d, converged: true }, [Vec::new(), Vec::new()]);
     }
     let (ca, cb) = (Triangles::from_indexed(pa, ta), Triangles::from_indexed(pb, tb));
     let (ba, bb) = (Bvh::new(&ca), Bvh::new(&cb));
-    let a = Side { pos: pa, tris: ta, corners: &ca, bvh: &ba };
-    let b = Side { pos: pb, tris: tb, corners: &cb, bvh: &bb };
-    let ab = one_sided(&a, &b, tol, 0.0);
-    let ba = one_sided(&b, &a, tol, ab.lower);
-    Certified { lower: ab.lower.max(ba.lower), upper: ab.upper.max(ba.upper), converged: ab.converged && ba.converged }
+    let a = Side { pos: pa, tris: ta, corners: &ca, bvh: &ba, across: across(ta) };
+    let b = Side { pos: pb, tris: tb, corners: &cb, bvh: &bb, across: across(tb) };
+    let (ab, over_a) = one_sided(&a, &b, tol, 0.0, over);
+    let (ba, over_b) = one_sided(&b, &a, tol, ab.lower, over);
+    let c = Certified {
+        lower: ab.lower.max(ba.lower),
+        upper: ab.upper.max(ba.upper),
+        converged: ab.converged && ba.converged,
+    };
+    (c, [over_a, over_b])
 }
 
 /// A piece of a `from` triangle.
@@ -102,37 +147,58 @@ struct Piece {
     /// Nearest `to` triangle of each corner.
     near: [u32; 3],
     depth: u8,
+    /// The `from` triangle it is part of.
+    tri: u32,
 }
 
-/// The certified one-sided distance from `from` to `to`, starting from a known lower bound.
-fn one_sided(from: &Side<'_>, to: &Side<'_>, tol: Tolerance, lower: f64) -> Certified {
+impl Piece {
+    fn farthest(&self) -> f64 {
+        self.d[0].max(self.d[1]).max(self.d[2])
+    }
+}
+
+/// The certified one-sided distance from `from` to `to`, starting from a known lower bound, and
+/// the `from` triangles where a point farther than `over` was found.
+fn one_sided(from: &Side<'_>, to: &Side<'_>, tol: Tolerance, lower: f64, over: f64) -> (Certified, Vec<u32>) {
     let mut used = vec![false; from.pos.len()];
     for &v in from.tris.iter().flatten() {
         used[v as usize] = true;
     }
-    let at: Vec<(f64, u32)> = (0..from.pos.len())
-        .into_par_iter()
-        .map(|v| {
+    // In fixed chunks (not per thread, so the hints and thus the tie-breaks between equally near
+    // triangles do not depend on the thread count), each query seeded with the previous answer.
+    let mut at: Vec<(f64, u32)> = vec![(0.0, u32::MAX); from.pos.len()];
+    at.par_chunks_mut(256).enumerate().for_each(|(c, out)| {
+        let mut hint = None;
+        for (k, slot) in out.iter_mut().enumerate() {
+            let v = c * 256 + k;
             if used[v] {
-                let (d2, t) = to.bvh.nearest(from.pos[v], None);
-                (d2.sqrt(), t)
-            } else {
-                (0.0, u32::MAX)
+                let (d2, t) = to.bvh.nearest(from.pos[v], hint);
+                *slot = (d2.sqrt(), t);
+                hint = Some(t);
             }
-        })
-        .collect();
+        }
+    });
     let mut lower = at.iter().fold(lower, |m, x| m.max(x.0));
     let threshold = |l: f64| l * (1.0 + tol.relative) + tol.absolute;
     let limit = threshold(lower);
+    let mut found: Vec<u32> = from
+        .tris
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.iter().any(|&v| at[v as usize].0 > over))
+        .map(|(i, _)| i as u32)
+        .collect();
     let first: Vec<(f64, Option<Piece>)> = from
         .tris
         .par_iter()
-        .map(|t| {
+        .enumerate()
+        .map(|(i, t)| {
             let piece = Piece {
                 p: t.map(|v| from.pos[v as usize]),
                 d: t.map(|v| at[v as usize].0),
                 near: t.map(|v| at[v as usize].1),
                 depth: 0,
+                tri: i as u32,
             };
             let b = bound(to, &piece, limit);
             if b <= limit { (b, None) } else { (0.0, Some(piece)) }
@@ -150,7 +216,8 @@ fn one_sided(from: &Side<'_>, to: &Side<'_>, tol: Tolerance, lower: f64) -> Cert
             break;
         }
         let children: Vec<Piece> = work.par_iter().flat_map_iter(|pc| split(to, pc)).collect();
-        lower = children.iter().fold(lower, |m, c| m.max(c.d[0].max(c.d[1]).max(c.d[2])));
+        lower = children.iter().fold(lower, |m, c| m.max(c.farthest()));
+        found.extend(children.iter().filter(|c| c.farthest() > over).map(|c| c.tri));
         let limit = threshold(lower);
         let bounds: Vec<f64> = children.par_iter().map(|c| bound(to, c, limit)).collect();
         work = Vec::new();
@@ -163,30 +230,43 @@ fn one_sided(from: &Side<'_>, to: &Side<'_>, tol: Tolerance, lower: f64) -> Cert
             }
         }
     }
-    Certified { lower, upper: lower.max(settled), converged }
+    found.sort_unstable();
+    found.dedup();
+    (Certified { lower, upper: lower.max(settled), converged }, found)
 }
 
-/// The four pieces of a 4-fold midpoint split, with the three new corners queried.
-fn split(to: &Side<'_>, pc: &Piece) -> [Piece; 4] {
-    let mid = |i: usize, j: usize| {
-        let m = 0.5 * (pc.p[i] + pc.p[j]);
-        let (d2, t) = to.bvh.nearest(m, Some(pc.near[i]));
-        (m, d2.sqrt(), t)
+/// The two pieces of a split at the midpoint of the longest edge, the new corner queried (seeded
+/// with an end's nearest triangle). Longest-edge bisection keeps slivers, and the segments that
+/// degenerate triangles are, from piling up pieces around a point.
+fn split(to: &Side<'_>, pc: &Piece) -> [Piece; 2] {
+    let len = |i: usize| pc.p[i].distance_squared(pc.p[(i + 1) % 3]);
+    let i = if len(0) >= len(1) && len(0) >= len(2) {
+        0
+    } else if len(1) >= len(2) {
+        1
+    } else {
+        2
     };
-    let (m01, m12, m20) = (mid(0, 1), mid(1, 2), mid(2, 0));
+    let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+    let m = 0.5 * (pc.p[i] + pc.p[j]);
+    let (d2, t) = to.bvh.nearest(m, Some(pc.near[i]));
+    let d = d2.sqrt();
     let depth = pc.depth + 1;
-    let make = |a: (DVec3, f64, u32), b: (DVec3, f64, u32), c: (DVec3, f64, u32)| Piece {
-        p: [a.0, b.0, c.0],
-        d: [a.1, b.1, c.1],
-        near: [a.2, b.2, c.2],
-        depth,
-    };
-    let corner = |i: usize| (pc.p[i], pc.d[i], pc.near[i]);
     [
-        make(corner(0), m01, m20),
-        make(m01, corner(1), m12),
-        make(m20, m12, corner(2)),
-        make(m01, m12, m20),
+        Piece {
+            p: [pc.p[i], m, pc.p[k]],
+            d: [pc.d[i], d, pc.d[k]],
+            near: [pc.near[i], t, pc.near[k]],
+            depth,
+            tri: pc.tri,
+        },
+        Piece {
+            p: [m, pc.p[j], pc.p[k]],
+            d: [d, pc.d[j], pc.d[k]],
+            near: [t, pc.near[j], pc.near[k]],
+            depth,
+            tri: pc.tri,
+        },
     ]
 }
 
@@ -212,10 +292,19 @@ fn bound(to: &Side<'_>, pc: &Piece, limit: f64) -> f64 {
     for &t in &cands[..n] {
         best = best.min(pc.p.iter().map(|&p| dist(p, t)).fold(0.0, f64::max));
     }
+    // Pairs sharing an edge: two of the candidates, or a candidate and a triangle across one of
+    // its edges (the nearest triangle of a corner near an edge is a toss-up between the two).
     for i in 0..n {
         for j in i + 1..n {
             if let Some(b) = split_bound(to, pc, cands[i], cands[j]) {
                 best = best.min(b);
+            }
+        }
+        for &o in &to.across[cands[i] as usize] {
+            if o != u32::MAX && !cands[..n].contains(&o) && best > limit {
+                if let Some(b) = split_bound(to, pc, cands[i], o) {
+                    best = best.min(b);
+                }
             }
         }
     }

