@@ -43,12 +43,56 @@ fn error_bounds_in_units_and_percent_and_measurement() {
         assert!(out.status.success(), "{}", text(&out.stderr));
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert!(report["measured"]["hausdorff"].as_f64().unwrap() < 1e-9, "a flat box decimates exactly");
-        assert!(text(&out.stderr).contains("measured: Hausdorff"));
+        assert!(report["decimate"]["error"].as_f64().unwrap() < 1e-6);
+        assert!(text(&out.stderr).contains("sampled: Hausdorff"));
+        assert!(text(&out.stderr).contains("certified"));
     }
     let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--target-faces", "3", "--lock-border"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
     assert_eq!(validate_mesh(&mesh, &Options::default()).counts.boundary_loops, 1);
+}
+
+#[test]
+fn max_error_bounds_the_written_output_and_quad_targets_are_met() {
+    let input = root().join("fixtures/meshes/valid/torus_quads.obj");
+    let mesh = read_path(&input, &ReadOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("t.ply");
+    for bound in ["1", "10%", "25%"] {
+        let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--max-error", bound, "--json"]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let d = &report["decimate"];
+        let e = if let Some(p) = bound.strip_suffix('%') {
+            p.parse::<f64>().unwrap() / 100.0 * d["diagonal"].as_f64().unwrap()
+        } else {
+            bound.parse().unwrap()
+        };
+        let reported = d["error"].as_f64().unwrap();
+        assert!(reported <= e && d["collapses"].as_u64().unwrap() > 0, "{bound}: {d}");
+        // The written output, measured independently: within the bound, and below the certified
+        // figure.
+        let written = read_path(&out_path, &ReadOptions::default()).unwrap();
+        let sampled = octowrap_decimate::metrics::distance(
+            &mesh,
+            &written,
+            &octowrap_decimate::metrics::Sampling::with_samples(200_000),
+        );
+        assert!(
+            sampled.hausdorff <= reported * (1.0 + 1e-9) && sampled.hausdorff >= 0.9 * reported - 1e-9,
+            "{bound}: {d}"
+        );
+        assert!(text(&out.stderr).contains("Hausdorff distance to the input: at most"));
+    }
+    // A face target on quad input counts the faces as written (16 is about as low as this
+    // torus goes: 15 faces, 8 vertices).
+    for n in ["30", "20", "16"] {
+        let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--target-faces", n]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let written = read_path(&out_path, &ReadOptions::default()).unwrap();
+        assert!(written.faces.len() <= n.parse().unwrap(), "{n}: {}", written.faces.len());
+    }
 }
 
 #[test]
@@ -123,6 +167,8 @@ fn help_documents_targets_and_the_camera_schema() {
         "viewport_height_px",
         "pixel_error",
         "Examples:",
+        "certified",
+        "a quad is one face",
     ] {
         assert!(help.contains(needle), "{needle}");
     }

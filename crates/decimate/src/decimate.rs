@@ -242,20 +242,22 @@ fn within_bound(
     // from the input, every input vertex that went into a vertex of a triangle where a point too
     // far was found (on either side), so those regions keep their input resolution; when no such
     // triangle is known (the excess is within the measurement's 1 % tolerance), lower the
-    // threshold instead. A first run well within the bound that stopped at it is followed by one
-    // run with a higher threshold, kept if it is within the bound too.
+    // threshold instead. A run well within the bound that stopped at it (before any freezing) is
+    // followed by a run with a higher threshold, kept if it is within the bound too (twice at
+    // most).
     let mut k = CALIBRATION;
     let mut keep: Vec<bool> = Vec::new();
     let mut kept: Option<Decimated> = None;
-    let mut runs = 0;
-    for attempt in 0..MAX_ATTEMPTS {
+    let (mut runs, mut ups, mut frozen_any) = (0, 0, false);
+    for _ in 0..MAX_ATTEMPTS {
         let (mut out, rep, out_vertices) = run.once((max_error / k / scale).powi(2), &keep, progress);
         runs += out.report.runs;
         let (m, [over_in, over_out], out_tris) = measure(&out.mesh, max_error);
         out.set_error(m, diagonal);
         let ratio = if max_error > 0.0 { m.upper / max_error } else { f64::INFINITY };
         if m.upper <= max_error {
-            let try_further = attempt == 0 && ratio < 0.85 && out.report.stop == Stop::ErrorBound;
+            let try_further = ups < 2 && !frozen_any && ratio < 0.85 && out.report.stop == Stop::ErrorBound;
+            ups += 1;
             kept = Some(out);
             if !try_further {
                 break;
@@ -278,6 +280,7 @@ fn within_bound(
                 grew = true;
             }
         }
+        frozen_any |= grew;
         if !grew {
             k *= ratio.clamp(1.25, 16.0) * 1.1;
         }
