@@ -4,8 +4,6 @@
 //! The geometry pass ([`geometry_pass`]) is one function used by both directions, so that encoder
 //! and decoder cannot disagree on a prediction.
 
-use wide::i32x8;
-
 use crate::lattice;
 
 /// Level block header size in bytes (spec §4.1).
@@ -406,7 +404,7 @@ pub struct GeometryScratch {
     /// Previous and next vertex of every incident corner, grouped by vertex.
     nbr: Vec<u32>,
     /// Per vertex: `[B_x, B_y, B_z, 1, J, 1 if line vertex, 0, 0]` once decoded in pass A.
-    bias: Vec<i32x8>,
+    bias: Vec<[i32; 8]>,
     /// Per parent face: its normal and line direction (lines, or lattice predictor 0).
     faces: Vec<FaceNormal>,
 }
@@ -415,7 +413,7 @@ impl GeometryScratch {
     /// Bytes held by the buffers.
     pub fn capacity_bytes(&self) -> usize {
         (self.ctx.capacity() + self.ctx_face.capacity() + self.end.capacity() + self.nbr.capacity()) * 4
-            + self.bias.capacity() * size_of::<i32x8>()
+            + self.bias.capacity() * size_of::<[i32; 8]>()
             + self.faces.capacity() * size_of::<FaceNormal>()
     }
 }
@@ -535,7 +533,7 @@ pub fn geometry_pass<E>(
         // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
         // not decoded yet and for vertices without a context, so the sums below need no test.
         bias.clear();
-        bias.resize(nv, i32x8::ZERO);
+        bias.resize(nv, [0; 8]);
         let lattice_mode = topo.mode == Mode::Lattice;
         let lines = topo.lines;
         let want_normal = lines || (lattice_mode && topo.predictor == PREDICTOR_NORMAL);
@@ -595,18 +593,19 @@ pub fn geometry_pass<E>(
             let sum = if (near.len() as i64).saturating_mul(max_abs) < 1 << 30 {
                 // Every term is below `max_abs + 1 <= 2 max_abs` in magnitude: no partial sum can
                 // leave 32 bits.
-                // Eight lanes at once (two SSE2 additions per neighbour).
-                let mut acc = i32x8::ZERO;
+                let mut acc = [0i32; 8];
                 for &u in near {
-                    acc += bias[u as usize];
+                    let b = &bias[u as usize];
+                    for k in 0..8 {
+                        acc[k] += b[k];
+                    }
                 }
-                let acc = acc.to_array();
                 map6(|k| i64::from(acc[k]))
             } else if near.len() < 1 << 30 {
                 // At most 2^30 terms of magnitude at most 2^30: no sum can saturate.
                 let mut acc = [0i64; 6];
                 for &u in near {
-                    let b = bias[u as usize].to_array();
+                    let b = &bias[u as usize];
                     for k in 0..6 {
                         acc[k] += i64::from(b[k]);
                     }
@@ -615,7 +614,7 @@ pub fn geometry_pass<E>(
             } else {
                 let mut acc = [0i64; 6];
                 for &u in near {
-                    let b = bias[u as usize].to_array();
+                    let b = &bias[u as usize];
                     for k in 0..6 {
                         acc[k] = acc[k].saturating_add(i64::from(b[k]));
                     }
@@ -635,7 +634,7 @@ pub fn geometry_pass<E>(
             let b = [qv[0] - base[0], qv[1] - base[1], qv[2] - base[2]];
             // An upper bound of the largest magnitude (at most twice it): ORs, no compares.
             max_abs |= (b[0] ^ b[0] >> 63) | (b[1] ^ b[1] >> 63) | (b[2] ^ b[2] >> 63) | (jv ^ jv >> 63);
-            bias[v] = i32x8::new([b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0]);
+            bias[v] = [b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0];
         }
     }
     if missing == 0 {
