@@ -77,6 +77,7 @@ pub struct GridInfo {
 /// Buffers reused from level to level (and file to file) by [`decode_level`].
 #[derive(Default)]
 pub struct Scratch {
+    /// The geometry pass's buffers.
     geometry: GeometryScratch,
     /// Per corner: its predicted name, or `u64::MAX`.
     pred: Vec<u64>,

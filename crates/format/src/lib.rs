@@ -124,8 +124,9 @@ impl EncodeOptions {
 }
 
 /// Upper bounds a decoder checks before allocating. Defaults suit meshes of up to ~250 M vertices;
-/// decoding a level takes about 100 bytes of memory per vertex, so lower `max_vertices` (or use
-/// [`Limits::strict`]) for untrusted input on small machines.
+/// decoding takes a few hundred bytes of memory per vertex of the largest level (about 250 measured
+/// on a lattice hierarchy: working arrays and the returned hierarchy), so lower `max_vertices` (or
+/// use [`Limits::strict`]) for untrusted input on small machines.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct Limits {
