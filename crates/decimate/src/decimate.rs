@@ -415,8 +415,21 @@ fn collapse_coherent(
         inv[old as usize] = new as u32;
     }
     let local: Vec<DVec3> = perm.iter().map(|&o| unit[o as usize]).collect();
-    let mut local_tris: Vec<[u32; 3]> = tris.iter().map(|t| t.map(|v| inv[v as usize])).collect();
-    local_tris.par_sort_unstable_by_key(|t| (t[0].min(t[1]).min(t[2]), *t));
+    // Triangles by their lowest vertex (a counting sort; input order within a vertex).
+    let lowest = |t: &[u32; 3]| inv[t[0] as usize].min(inv[t[1] as usize]).min(inv[t[2] as usize]) as usize;
+    let mut start = vec![0u32; unit.len() + 1];
+    for t in tris {
+        start[lowest(t) + 1] += 1;
+    }
+    for i in 0..unit.len() {
+        start[i + 1] += start[i];
+    }
+    let mut local_tris = vec![[0u32; 3]; tris.len()];
+    for t in tris {
+        let slot = &mut start[lowest(t)];
+        local_tris[*slot as usize] = t.map(|v| inv[v as usize]);
+        *slot += 1;
+    }
     let local_keep: Vec<bool> =
         if keep.is_empty() { Vec::new() } else { perm.iter().map(|&o| keep[o as usize]).collect() };
     let mut out = collapse::run(local, local_tris, lock_border, &local_keep, target, max_cost, progress);
