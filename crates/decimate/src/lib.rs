@@ -78,8 +78,11 @@
 //! crack-freeness argument are in `cut.rs` and on [`cut`].
 //!
 //! # Distances: [`metrics`]
-//! Sampled symmetric Hausdorff and RMS distance between two meshes (BVH and exact point-triangle
-//! distance), defined precisely in the module docs.
+//! The certified symmetric Hausdorff distance between two meshes
+//! ([`metrics::certified_hausdorff`]: a lower and an upper bound of the true distance, 1 % apart,
+//! by branch and bound over subdivided triangles; `hausdorff.rs`), and the sampled symmetric
+//! Hausdorff and RMS distances ([`metrics::distance`]; BVH and exact point-triangle distance),
+//! defined precisely in the module docs.
 
 mod collapse;
 mod cut;
