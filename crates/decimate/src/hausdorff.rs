@@ -292,6 +292,9 @@ fn bound(to: &Side<'_>, pc: &Piece, limit: f64) -> f64 {
     for &t in &cands[..n] {
         best = best.min(pc.p.iter().map(|&p| dist(p, t)).fold(0.0, f64::max));
     }
+    if best <= limit {
+        return best;
+    }
     // Pairs sharing an edge: two of the candidates, or a candidate and a triangle across one of
     // its edges (the nearest triangle of a corner near an edge is a toss-up between the two).
     for i in 0..n {
@@ -315,8 +318,8 @@ fn bound(to: &Side<'_>, pc: &Piece, limit: f64) -> f64 {
 /// they share no edge): each side bounded by its triangle at the side's corners.
 fn split_bound(to: &Side<'_>, pc: &Piece, t1: u32, t2: u32) -> Option<f64> {
     let (a, b) = (to.tris[t1 as usize], to.tris[t2 as usize]);
-    let shared: Vec<u32> = a.iter().copied().filter(|v| b.contains(v)).collect();
-    let &[u, v] = shared.as_slice() else { return None };
+    let mut shared = a.into_iter().filter(|v| b.contains(v));
+    let (Some(u), Some(v), None) = (shared.next(), shared.next(), shared.next()) else { return None };
     let third = |t: [u32; 3]| t.into_iter().find(|&x| x != u && x != v);
     let (a1, a2) = (third(a)?, third(b)?);
     let p = |i: u32| to.pos[i as usize];
