@@ -154,7 +154,8 @@ pub struct CutReport {
     pub faces_per_level: Vec<usize>,
     /// Complete faces per level (those that could stand for their region).
     pub complete_per_level: Vec<usize>,
-    /// Largest distance to the finest level of a selected face (0 when all are finest).
+    /// Largest distance to the finest level of a selected face (0 when all are finest): the
+    /// certified upper bound of the module docs, so the cut is within it of the finest level.
     pub max_error: f64,
 }
 
