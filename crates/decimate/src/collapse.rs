@@ -277,34 +277,29 @@ struct Candidate {
     to: DVec3,
 }
 
-/// How many candidates ahead the collapse loop loads a candidate; its vertices' data are loaded
-/// two thirds as far ahead, their first triangles a third ([`prefetch`]).
-const PREFETCH: usize = 12;
+/// How many candidates ahead the collapse loop loads its vertices' data; their first triangles
+/// are loaded half as far ahead ([`prefetch`]).
+const PREFETCH: usize = 8;
 
 /// The collapse loop is bound by memory latency (candidates come in cost order, scattered over
 /// the mesh): this touches what the candidates after `order[at]` will read, so that their cache
 /// misses overlap the current one's work.
-#[allow(clippy::too_many_arguments)]
 fn prefetch(
-    order: &[(u64, u32)],
+    order: &[(u64, u32, u32)],
     at: usize,
-    cands: &[Keyed],
     touched: &[u32],
+    quadrics: &[Quadric],
     pos: &[DVec3],
     adj: &Csr,
     tris: &[[u32; 3]],
 ) {
-    if let Some(&(_, x)) = order.get(at + PREFETCH) {
-        std::hint::black_box(cands[x as usize].1.keep);
+    if let Some(&(_, x, y)) = order.get(at + PREFETCH) {
+        let (x, y) = (x as usize, y as usize);
+        std::hint::black_box((touched[x], touched[y], quadrics[x].weight(), quadrics[y].weight()));
+        std::hint::black_box((pos[x].x, pos[y].x, adj.off[x], adj.off[y]));
     }
-    if let Some(&(_, x)) = order.get(at + PREFETCH * 2 / 3) {
-        let c = &cands[x as usize].1;
-        let (x, y) = (c.keep as usize, c.remove as usize);
-        std::hint::black_box((touched[x], touched[y], pos[x].x, pos[y].x, adj.off[y], adj.off[x]));
-    }
-    if let Some(&(_, x)) = order.get(at + PREFETCH / 3) {
-        let c = &cands[x as usize].1;
-        for v in [c.keep, c.remove] {
+    if let Some(&(_, x, y)) = order.get(at + PREFETCH / 2) {
+        for v in [x, y] {
             if let Some(&t) = adj.of(v).first() {
                 std::hint::black_box(tris[t as usize][0]);
             }
@@ -312,12 +307,11 @@ fn prefetch(
     }
 }
 
-/// A candidate with its sort key (see [`edge_keys`]).
-type Keyed = (u64, Candidate);
-
 /// A triangle removed during a pass (in its first corner; vertex numbers stay below `u32::MAX`).
 const DEAD: u32 = u32::MAX;
 
+/// Sort key of a half-edge that makes no candidate.
+const NONE: u64 = u64::MAX;
 /// Sort key of a candidate over the error bound.
 const OVER: u64 = u64::MAX - 1;
 
@@ -367,8 +361,9 @@ pub(crate) fn run(
         }
         passes += 1;
         let pass = passes as u32;
-        let (cands, mut order) = edge_keys(&pos, &quadrics, &kind, &adj, &tris, max_cost);
-        let over_bound = order.len() < cands.len();
+        let mut order = edge_keys(&pos, &quadrics, &kind, &adj, &tris, max_cost);
+        let over_bound = order.par_iter().any(|e| e.0 == OVER);
+        order.retain(|e| e.0 < OVER);
         // The pass stops at 1.5 times the error of the candidate that would reach the target (its
         // rank found by selection), so only the candidates below that are sorted, the rest only
         // when nothing below was valid.
@@ -376,7 +371,7 @@ pub(crate) fn run(
         let mut limit =
             if goal < order.len() { f64::from_bits(order.select_nth_unstable(goal).1.0) * 1.5 } else { f64::INFINITY }
                 .min(max_cost);
-        let mut rest: Vec<(u64, u32)> = Vec::new();
+        let mut rest: Vec<(u64, u32, u32)> = Vec::new();
         order.retain(|e| {
             let keep = f64::from_bits(e.0) <= limit;
             if !keep {
@@ -399,22 +394,22 @@ pub(crate) fn run(
                 at = 0;
                 limit = max_cost;
             }
-            let (bits, i) = order[at];
-            prefetch(&order, at, &cands, &touched, &pos, &adj, &tris);
+            let (bits, a, b) = order[at];
+            prefetch(&order, at, &touched, &quadrics, &pos, &adj, &tris);
             at += 1;
             let cost = f64::from_bits(bits);
             if live <= target || cost > limit {
                 break;
             }
-            // Neither end has changed since the candidate was made (a vertex kept or removed in a
-            // pass takes no further part in it), so it stands as made.
-            let c = cands[i as usize].1;
-            let (a, b) = (c.keep, c.remove);
             if touched[a as usize] == pass || touched[b as usize] == pass {
                 continue;
             }
+            // Neither end has changed since the candidate was made, so this gives it back exactly.
+            let Some(c) = edge_candidate(&pos, &quadrics, &kind, &adj, &tris, a.min(b), a.max(b), false) else {
+                continue;
+            };
             let view = View { pos: &pos, tris: &tris, adj: &adj, kind: &kind };
-            if !view.can_collapse(a, b, c.to, &mut scratch) {
+            if c.keep != a || !view.can_collapse(a, b, c.to, &mut scratch) {
                 continue;
             }
             for &t in adj.of(b) {
@@ -465,10 +460,10 @@ fn resolve(rep: &mut [u32]) {
     }
 }
 
-/// The candidates of one pass, one per edge, in half-edge order (each with its sort key: the
-/// error's bits, [`OVER`] for an error over `max_cost`), and the sort keys `(error bits, index)`
-/// of those within `max_cost`. Errors are >= 0, so their bit patterns sort like the numbers, and
-/// the index is unique: a total order, the same whatever the thread count.
+/// One sort key per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
+/// sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
+/// whatever the thread count. Half-edges that make no candidate get [`NONE`], over-bound edges
+/// [`OVER`].
 fn edge_keys(
     pos: &[DVec3],
     quadrics: &[Quadric],
@@ -476,18 +471,19 @@ fn edge_keys(
     adj: &Csr,
     tris: &[[u32; 3]],
     max_cost: f64,
-) -> (Vec<Keyed>, Vec<(u64, u32)>) {
-    let all: Vec<Keyed> = (0..tris.len() * 3)
+) -> Vec<(u64, u32, u32)> {
+    (0..tris.len() * 3)
         .into_par_iter()
-        .filter_map(|h| {
+        .map(|h| {
             let tri = tris[h / 3];
             let (i, j) = (tri[h % 3], tri[(h + 1) % 3]);
-            let c = edge_candidate(pos, quadrics, kind, adj, tris, i, j, true)?;
-            Some((if c.cost <= max_cost { c.cost.to_bits() } else { OVER }, c))
+            match edge_candidate(pos, quadrics, kind, adj, tris, i, j, true) {
+                Some(c) if c.cost <= max_cost => (c.cost.to_bits(), c.keep, c.remove),
+                Some(_) => (OVER, 0, 0),
+                None => (NONE, 0, 0),
+            }
         })
-        .collect();
-    let keys = all.par_iter().enumerate().filter(|(_, c)| c.0 < OVER).map(|(i, c)| (c.0, i as u32)).collect();
-    (all, keys)
+        .collect()
 }
 
 /// The candidate of edge `i-j`. With `half_edge`, `i -> j` is a half-edge of the mesh and the

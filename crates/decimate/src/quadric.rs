@@ -31,6 +31,11 @@ impl Quadric {
         Self::plane(n, -n.dot(p), w)
     }
 
+    /// The total weight.
+    pub(crate) fn weight(&self) -> f64 {
+        self.w
+    }
+
     /// Adds `o` to `self`.
     pub(crate) fn add(&mut self, o: &Self) {
         for (x, y) in self.a.iter_mut().zip(o.a) {
