@@ -20,8 +20,8 @@ use octowrap_geom::morton;
 use rayon::prelude::*;
 
 use crate::irregular::Decisions;
-use crate::keymap::KeyMap;
 use crate::lattice::{EdgeCase, corners, pair_key, unslot};
+use crate::rankmap::RankMap;
 
 /// A level's connectivity: one quad per slot, vertices as lattice corners.
 #[derive(Debug, Default)]
@@ -66,7 +66,7 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 /// Links faces and extracts vertices. `slots` sorted; `dec` gives partners.
 #[allow(clippy::needless_range_loop)] // f and k index several parallel arrays at once
 pub(crate) fn extract(slots: &[u64], dec: &Decisions<'_>) -> (Extracted, Vec<BadEdge>) {
-    let index = KeyMap::from_keys(slots);
+    let index = RankMap::from_sorted(slots);
     let face_corners: Vec<[[u32; 3]; 4]> = slots
         .par_iter()
         .map(|&s| {

@@ -1,8 +1,8 @@
-//! A small open-addressing hash map from `u64` keys (Morton codes, slot keys) to `u32` indices.
+//! A small open-addressing hash map from `u64` keys (slot keys) to `u32` values, for sets that grow
+//! (the closure's faces, [`crate::irregular`]); fixed sorted key sets use [`crate::rankmap`].
 //!
 //! Only ever used for look-ups: nothing iterates over it, so no hash order can leak into the
-//! output. Built once per level from sorted keys, it answers the neighbour queries of every stage
-//! in O(1) instead of a binary search.
+//! output.
 
 /// Maps distinct `u64` keys (never `u64::MAX`) to `u32` values.
 #[derive(Clone, Debug, Default)]
@@ -21,15 +21,6 @@ fn hash(key: u64, shift: u32) -> usize {
 }
 
 impl KeyMap {
-    /// A map of `keys[i] -> i`.
-    pub(crate) fn from_keys(keys: &[u64]) -> Self {
-        let mut m = Self::with_capacity(keys.len());
-        for (i, &k) in keys.iter().enumerate() {
-            m.insert(k, i as u32);
-        }
-        m
-    }
-
     /// An empty map sized for `n` keys (load factor at most 1/2).
     pub(crate) fn with_capacity(n: usize) -> Self {
         let bits = (2 * n.max(1)).next_power_of_two().trailing_zeros().max(4);

@@ -107,6 +107,7 @@ mod keymap;
 mod lattice;
 mod mapping;
 mod octree;
+mod rankmap;
 mod regular;
 mod relax;
 mod sheet;
@@ -119,9 +120,9 @@ use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, 
 use rayon::prelude::*;
 
 use crate::irregular::Decisions;
-use crate::keymap::KeyMap;
 use crate::lattice::{MAX_LEVEL, unslot};
 use crate::octree::{Octree, voxel_size};
+use crate::rankmap::RankMap;
 
 /// The deepest level supported (slot keys pack a level-`j` Morton code in `3 j + 3` bits).
 pub const DEEPEST_LEVEL: u32 = MAX_LEVEL;
@@ -507,7 +508,7 @@ pub fn reconstruct_with(
             // §3.4: mask and regular refinement.
             stage(Stage::Regular);
             let t = Instant::now();
-            let prev_index = KeyMap::from_keys(&prev.slots);
+            let prev_index = RankMap::from_sorted(&prev.slots);
             let mask = sheet::build(&tree, cells, coarse, &prev_index);
             rep.oriented_voxels = mask.signed_count();
             let initial = regular::refine(&prev.slots, &prev_index, cells, &mask);

@@ -10,7 +10,7 @@
 //! of equal prefixes in one sorted array: each voxel knows its points as a contiguous range, the
 //! voxels of a level are in Morton order, and the eight children of a voxel are consecutive.
 //! Building a level is one O(|P|) scan (the paper's bound), done in parallel; neighbour look-ups
-//! go through a hash map from Morton code to voxel index ([`crate::keymap`]), O(1).
+//! go through an index from Morton code to voxel index ([`crate::rankmap`]), O(1).
 //!
 //! Coordinates are local: `u = (p - cube.min) / cube.edge`, in `[0, 1)^3`, stored as `f32`
 //! (2^-24 of the cube, far below any level's voxel). Moments are accumulated in `f64`.
@@ -20,7 +20,7 @@ use std::ops::Range;
 use octowrap_geom::{Aabb, DVec3, Moments, glam::Vec3, morton};
 use rayon::prelude::*;
 
-use crate::keymap::KeyMap;
+use crate::rankmap::RankMap;
 
 /// Bits per axis of the full-depth codes.
 const CODE_BITS: u32 = morton::MAX_DEPTH;
@@ -58,7 +58,7 @@ pub(crate) struct Cells {
     /// Moments of each voxel's points (local coordinates).
     pub moments: Vec<Moments>,
     /// Morton code to voxel index.
-    pub index: KeyMap,
+    pub index: RankMap,
 }
 
 /// Most points per occupied neighbour, on average, around a gap that [`Cells::fill_gaps`] fills.
@@ -191,7 +191,7 @@ impl Cells {
             }
         }
         starts.push(*self.starts.last().unwrap_or(&0));
-        self.index = KeyMap::from_keys(&keys);
+        self.index = RankMap::from_sorted(&keys);
         self.keys = keys;
         self.starts = starts;
         self.moments = moments;
@@ -254,8 +254,13 @@ impl Octree {
         let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
         drop(pairs);
         let n = local.len() as u32;
-        let root =
-            Cells { level: 0, keys: vec![0], starts: vec![0, n], moments: Vec::new(), index: KeyMap::from_keys(&[0]) };
+        let root = Cells {
+            level: 0,
+            keys: vec![0],
+            starts: vec![0, n],
+            moments: Vec::new(),
+            index: RankMap::from_sorted(&[0]),
+        };
         Self { frame, points: local, codes, levels: vec![root], distinct }
     }
 
@@ -284,7 +289,7 @@ impl Octree {
         );
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
-        let index = KeyMap::from_keys(&keys);
+        let index = RankMap::from_sorted(&keys);
         self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
     }
 

@@ -16,14 +16,19 @@ use octowrap_geom::morton;
 use octowrap_mesh::{FaceOrigin, Quadrant};
 use rayon::prelude::*;
 
-use crate::keymap::KeyMap;
 use crate::lattice::{Side, axis, corner_offset, opposite, plane_axes, sign, slot, unslot};
 use crate::octree::Cells;
+use crate::rankmap::RankMap;
 use crate::sheet::Mask;
 
 /// The subfaces of `coarse_slots` (level `j`, sorted, face `i` = slot `i`) on level `fine.level`,
 /// sorted by slot key, with their origins.
-pub(crate) fn refine(coarse_slots: &[u64], coarse_index: &KeyMap, fine: &Cells, mask: &Mask) -> Vec<(u64, FaceOrigin)> {
+pub(crate) fn refine(
+    coarse_slots: &[u64],
+    coarse_index: &RankMap,
+    fine: &Cells,
+    mask: &Mask,
+) -> Vec<(u64, FaceOrigin)> {
     let allowed =
         |code: u64, side: Side| -> bool { fine.find(code).is_some_and(|i| mask.allows(i, morton::decode(code), side)) };
     let mut out: Vec<(u64, FaceOrigin)> = coarse_slots

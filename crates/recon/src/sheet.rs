@@ -42,9 +42,9 @@
 use octowrap_geom::{DVec3, Moments};
 use rayon::prelude::*;
 
-use crate::keymap::KeyMap;
 use crate::lattice::{Side, axis, offset, sign, slot, step};
 use crate::octree::{BLOCK, Cells, Octree};
+use crate::rankmap::RankMap;
 
 /// Minimum `|d . n|` for a face to vote, and the refusal threshold.
 const VOTE: f64 = 0.3;
@@ -167,7 +167,7 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
 #[allow(clippy::too_many_lines, clippy::neg_cmp_op_on_partial_ord)] // the four steps read in order; NaN is unreliable
-pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &KeyMap) -> Mask {
+pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &RankMap) -> Mask {
     let level = fine.level;
     let h = fine.voxel();
     let pts = &tree.points;
