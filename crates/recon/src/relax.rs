@@ -47,10 +47,8 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
             }
         }
     }
-    let mut next = vec![DVec3::ZERO; n];
-    for _ in 0..passes {
-        let old: &[DVec3] = positions;
-        next.par_iter_mut().enumerate().for_each(|(v, out)| {
+    let pass = |old: &[DVec3], new: &mut [DVec3]| {
+        new.par_iter_mut().enumerate().for_each(|(v, out)| {
             let around = &neighbours[first[v] as usize..first[v + 1] as usize];
             *out = match planes[v] {
                 Some(plane) if !around.is_empty() => {
@@ -63,6 +61,18 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
                 _ => old[v],
             };
         });
+    };
+    // Passes alternate between the two buffers (no copy back after each pass): pass 1 reads
+    // `positions` and writes `next`, pass 2 the other way round; an odd count copies once.
+    let mut next = vec![DVec3::ZERO; n];
+    for p in 0..passes {
+        if p % 2 == 0 {
+            pass(positions, &mut next);
+        } else {
+            pass(&next, positions);
+        }
+    }
+    if passes % 2 == 1 {
         positions.par_iter_mut().zip(&next).for_each(|(p, q)| *p = *q);
     }
 }
