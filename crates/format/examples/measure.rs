@@ -9,7 +9,10 @@ use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode
 fn main() {
     for path in std::env::args().skip(1) {
         let mut h = read_path(path.as_ref(), &DecodeOptions::default()).expect("reads").hierarchy;
-        let opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+        let mut opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+        if let Some(v) = std::env::var("MEASURE_VERSION").ok().and_then(|v| v.parse().ok()) {
+            opts.version = v;
+        }
         if std::env::var_os("MEASURE_PLACE").is_some() {
             let t = Instant::now();
             let p = octowrap_format::place_on_prediction_lines(&mut h, &opts).expect("places");

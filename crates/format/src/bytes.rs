@@ -183,6 +183,21 @@ pub struct Planes<'a> {
 }
 
 impl Planes<'_> {
+    /// All `n` values into `out` (at most four planes: values below 2^32), plane by plane.
+    pub fn decode_into(&self, out: &mut Vec<u32>) {
+        out.clear();
+        out.resize(self.n, 0);
+        if self.n == 0 {
+            return;
+        }
+        for (plane, bytes) in self.bytes.chunks_exact(self.n).enumerate().take(4) {
+            let shift = 8 * plane as u32;
+            for (v, &b) in out.iter_mut().zip(bytes) {
+                *v |= u32::from(b) << shift;
+            }
+        }
+    }
+
     /// Value `v` (`v < n`).
     #[inline]
     pub fn get(&self, v: usize) -> u64 {

@@ -147,7 +147,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
         return Err(Error::BadMagic { found: b[..8].to_vec() });
     }
     let h: FileHeader = from_bytes(b, 0, "file header")?;
-    if !(1..=crate::FORMAT_VERSION).contains(&h.version) {
+    if !(1..=crate::LATEST_FORMAT_VERSION).contains(&h.version) {
         return Err(Error::UnsupportedVersion { found: h.version });
     }
     let bad =

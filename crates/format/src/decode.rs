@@ -4,6 +4,7 @@
 use crate::bytes::{Reader, unzigzag};
 use crate::container::LevelEntry;
 use crate::error::{Error, Where};
+use crate::fast;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
     BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode,
@@ -90,6 +91,19 @@ pub struct Scratch {
     names: Vec<u64>,
     /// Per corner: the index of its name, or [`NONE`].
     name_of: Vec<u32>,
+    /// Mode 3's key table.
+    fast_resolve: fast::ResolveScratch,
+    /// Mode 3's geometry buffers.
+    fast_geometry: FastGeometryScratch,
+}
+
+/// Buffers of [`finish_fast`].
+#[derive(Default)]
+pub struct FastGeometryScratch {
+    pub(crate) contexts: fast::Contexts,
+    dirs: Vec<fast::FaceLine>,
+    /// Line parameters and x, y, z residuals, zigzagged.
+    values: [Vec<u32>; 4],
 }
 
 impl Scratch {
@@ -102,6 +116,10 @@ impl Scratch {
             + self.rank.capacity() * 4
             + self.names.capacity() * 8
             + self.name_of.capacity() * 4
+            + self.fast_resolve.capacity_bytes()
+            + self.fast_geometry.contexts.capacity_bytes()
+            + self.fast_geometry.dirs.capacity() * size_of::<fast::FaceLine>()
+            + self.fast_geometry.values.iter().map(|v| v.capacity() * 4).sum::<usize>()
     }
 }
 
@@ -122,6 +140,7 @@ pub fn decode_level(
         0 => Mode::Base,
         1 => Mode::Generic,
         2 => Mode::Lattice,
+        3 if grid.version >= 3 => Mode::FastLattice,
         m => return Err(bad(0, format!("unknown mode {m}"))),
     };
     if (mode == Mode::Base) != (k == 0) {
@@ -135,13 +154,13 @@ pub fn decode_level(
     if has_lattice && k > MAX_LATTICE_DEPTH {
         return Err(bad(1, format!("lattice coordinates are not allowed below level {MAX_LATTICE_DEPTH}")));
     }
-    if mode == Mode::Lattice && (!has_lattice || !(grid.exact || grid.tied)) {
+    if mode.is_lattice() && (!has_lattice || !(grid.exact || grid.tied)) {
         return Err(bad(0, "lattice mode needs the lattice flag and an exact or cube-tied grid".into()));
     }
     let predictor_byte = head.u8()?;
     let lines = predictor_byte & PREDICTOR_LINES != 0;
     let predictor = predictor_byte & !PREDICTOR_LINES;
-    if predictor > u8::from(mode == Mode::Lattice) {
+    if predictor > u8::from(mode.is_lattice()) {
         return Err(bad(2, format!("predictor {predictor} is not defined for mode {}", mode as u8)));
     }
     if lines && (mode == Mode::Base || grid.exact || grid.version < 2) {
@@ -176,7 +195,7 @@ pub fn decode_level(
         (Mode::Base, true) => &[s::FACE_SIZES, s::CORNERS, s::RAW_LATTICE, s::GEOMETRY],
         (Mode::Generic, false) => &[0, 2, 4, 5, 6, 7, 8, 9, 11],
         (Mode::Generic, true) => &[0, 2, 4, 5, 6, 7, 8, 9, 10, 11],
-        (Mode::Lattice, _) => &[0, 1, 2, 3, 6, 7, 8, 9, 11],
+        (Mode::Lattice | Mode::FastLattice, _) => &[0, 1, 2, 3, 6, 7, 8, 9, 11],
     };
     for (i, r) in st.iter().enumerate() {
         if !used.contains(&i) && r.remaining() != 0 {
@@ -215,7 +234,7 @@ pub fn decode_level(
         let p = parent.expect("levels above 0 have a parent");
         let pp = p.as_parent();
         // §5.3 / §5.4: subfaces, then created faces; predicted names per corner.
-        let Scratch { geometry, pred, pos, bits, rank, names, name_of } = scratch;
+        let Scratch { geometry, pred, pos, bits, rank, names, name_of, fast_resolve, fast_geometry } = scratch;
         pred.clear();
         pred.resize(nc, u64::MAX);
         pos.clear();
@@ -231,7 +250,7 @@ pub fn decode_level(
         // The range and count of the predicted names, when every corner has one (lattice levels).
         let mut name_bounds = None;
         let mut slots: Vec<([u32; 3], u8)> = Vec::new();
-        if mode == Mode::Lattice {
+        if mode.is_lattice() {
             parent_quads = pp.canonical_quads().map_err(|f| {
                 st[s::CHILD_MASKS].invalid(format!("lattice mode needs a lattice parent of quads (parent face {f})"))
             })?;
@@ -368,6 +387,30 @@ pub fn decode_level(
             if corner != nc {
                 return Err(st[s::FACE_SIZES].invalid(format!("faces hold {corner} corners, corner_count is {nc}")));
             }
+        }
+        if mode == Mode::FastLattice {
+            // §5.9: first-use numbering through a table of keys.
+            let [_, _, _, _, _, _, extras, splits, exceptions, choices, _, _] = &mut st[..] else {
+                unreachable!("twelve streams")
+            };
+            let streams = fast::ResolveStreams { splits, exceptions, choices, extras };
+            let faces = (&out.parents[..], &out.quadrants[..], &parent_quads[..]);
+            let corners = fast::resolve(
+                k,
+                nv,
+                pred,
+                pos,
+                &mut out.indices,
+                streams,
+                fast_resolve,
+                faces,
+                &mut fast_geometry.contexts,
+            )?;
+            out.corners = Some(corners);
+            out.slots = Some(slots);
+            out.parents.shrink_to_fit();
+            let variant = (predictor, lines, line_shift);
+            return finish_fast(k, variant, grid, &mut st, out, p, &parent_quads, fast_geometry);
         }
         // §5.5: the name set and splits.
         // Predicted names, sorted once (radix); `name_of[c]` = the index of corner c's name.
@@ -694,6 +737,77 @@ fn finish(
                 Ok((out, None))
             },
         )?;
+        out.q = q;
+    }
+    for r in st.iter() {
+        r.finish()?;
+    }
+    Ok(out)
+}
+
+/// Geometry of a mode 3 level (spec §6.8) and the end-of-block checks.
+#[allow(clippy::too_many_arguments)]
+fn finish_fast(
+    k: u32,
+    (predictor, lines, line_shift): (u8, bool, u32),
+    grid: GridInfo,
+    st: &mut [Reader<'_>],
+    mut out: PlainLevel,
+    parent: &PlainLevel,
+    parent_quads: &[([u32; 4], u8)],
+    scratch: &mut FastGeometryScratch,
+) -> Result<PlainLevel, Error> {
+    let nv = out.corners.as_ref().map_or(0, Vec::len);
+    let g = &mut st[s::GEOMETRY];
+    if grid.exact {
+        let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
+        out.exact = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
+        if let Some(v) = out.exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+            return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
+        }
+    } else {
+        let mut flags: &[u8] = &[];
+        let mut line_count = 0usize;
+        if lines {
+            flags = g.bytes(nv.div_ceil(8))?;
+            if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
+                return Err(g.invalid("unused line flag bits are not zero"));
+            }
+            line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
+        }
+        let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
+        let rest = nv - line_count;
+        let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
+        let FastGeometryScratch { contexts, dirs, values } = scratch;
+        // (`contexts` were found by `fast::resolve`.)
+        // The stream's values, assembled from their byte planes once (in bulk, not per vertex).
+        let [jv, rx, ry, rz] = values;
+        match &params {
+            Some(p) => p.decode_into(jv),
+            None => jv.clear(),
+        }
+        planes[0].decode_into(rx);
+        planes[1].decode_into(ry);
+        planes[2].decode_into(rz);
+        let topo = fast::FastTopo {
+            level: k,
+            bits: grid.bits,
+            indices: &out.indices,
+            slots: out.slots.as_deref().unwrap_or_default(),
+            vertex_corners: out.corners.as_deref().unwrap_or_default(),
+            contexts,
+            parent_quads,
+            lines,
+            line_shift,
+            predictor,
+        };
+        let mut q = vec![[0i64; 3]; nv];
+        let decoded = fast::decode_pass(&topo, &parent.q, &mut q, dirs, flags, jv, [rx, ry, rz]);
+        if let Err(v) = decoded {
+            return Err(g.invalid(format!(
+                "vertex {v} decodes outside the grid range (|q| > 2^28) or has a line parameter beyond 2^30"
+            )));
+        }
         out.q = q;
     }
     for r in st.iter() {

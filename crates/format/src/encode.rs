@@ -5,6 +5,7 @@
 use crate::bytes::{put_planes, put_varint, zigzag};
 use crate::decode::PlainLevel;
 use crate::error::EncodeError;
+use crate::fast;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
     BLOCK_FLAG_LATTICE, GeometryScratch, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent,
@@ -80,6 +81,7 @@ pub fn encode_level(
     exact: bool,
     tied: bool,
     bits: u32,
+    version: u16,
 ) -> Result<Encoded, EncodeError> {
     let nf = input.parents.len();
     let nv = input.q.len().max(input.exact.len());
@@ -130,7 +132,11 @@ pub fn encode_level(
     let pp = parent.as_parent();
     let lattice_plan =
         if has_lattice && (exact || tied) && parent.slots.is_some() { plan_lattice(input, &pp) } else { None };
-    let mode = if lattice_plan.is_some() { Mode::Lattice } else { Mode::Generic };
+    let mode = match lattice_plan {
+        Some(_) if version >= 3 => Mode::FastLattice,
+        Some(_) => Mode::Lattice,
+        None => Mode::Generic,
+    };
 
     // Face order (§5.7): subfaces by (parent, quadrant), then created faces.
     let mut order: Vec<u32> = (0..nf as u32).collect();
@@ -222,109 +228,115 @@ pub fn encode_level(
         offsets.push(corner_vertex.len() as u32);
     }
 
-    // Vertex names (§5.5) and canonical vertex order (§5.7).
-    let mut vname = vec![u64::MAX; nv];
-    let mut first_seen = vec![u64::MAX; nv];
-    if let Some(corners) = input.corners.filter(|_| mode == Mode::Lattice) {
-        for v in 0..nv {
-            vname[v] = lattice::corner_key(corners[v], k);
-        }
-    }
-    for (c, &v) in corner_vertex.iter().enumerate() {
-        let v = v as usize;
-        if first_seen[v] == u64::MAX {
-            first_seen[v] = c as u64;
-        }
-        if mode == Mode::Generic && vname[v] == u64::MAX && pred[c] != u64::MAX {
-            vname[v] = pred[c];
-        }
-    }
-    if mode == Mode::Generic {
-        let mut next = name_base_free;
-        for &v in &corner_vertex {
-            if vname[v as usize] == u64::MAX {
-                vname[v as usize] = next;
-                next += 1;
+    let (indices, vorder) = if mode == Mode::FastLattice {
+        fast_names(k, input.corners.expect("lattice"), &corner_vertex, &pred, &mut pos, nv, &mut st)
+    } else {
+        // Vertex names (§5.5) and canonical vertex order (§5.7).
+        let mut vname = vec![u64::MAX; nv];
+        let mut first_seen = vec![u64::MAX; nv];
+        if let Some(corners) = input.corners.filter(|_| mode == Mode::Lattice) {
+            for v in 0..nv {
+                vname[v] = lattice::corner_key(corners[v], k);
             }
         }
-        for n in &mut vname {
-            if *n == u64::MAX {
-                *n = next;
-                next += 1;
+        for (c, &v) in corner_vertex.iter().enumerate() {
+            let v = v as usize;
+            if first_seen[v] == u64::MAX {
+                first_seen[v] = c as u64;
+            }
+            if mode == Mode::Generic && vname[v] == u64::MAX && pred[c] != u64::MAX {
+                vname[v] = pred[c];
             }
         }
-    }
-    let mut vorder: Vec<u32> = (0..nv as u32).collect();
-    vorder.sort_by_key(|&v| (vname[v as usize], first_seen[v as usize], v));
-    let mut vnew = vec![0u32; nv];
-    for (new, &old) in vorder.iter().enumerate() {
-        vnew[old as usize] = new as u32;
-    }
-    let mut predicted: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
-    predicted.sort_unstable();
-    predicted.dedup();
-    // The name set (predicted names and the vertices' names), each with its first vertex and count.
-    let mut names: Vec<(u64, u32, u32)> = Vec::with_capacity(predicted.len() + 16);
-    {
-        let mut vi = 0usize;
-        let mut pi = 0usize;
-        loop {
-            let vn = vorder.get(vi).map(|&v| vname[v as usize]);
-            let pn = predicted.get(pi).copied();
-            let nm = match (vn, pn) {
-                (None, None) => break,
-                (Some(a), Some(b)) => a.min(b),
-                (Some(a), None) => a,
-                (None, Some(b)) => b,
-            };
-            let first = vi as u32;
-            while vi < vorder.len() && vname[vorder[vi] as usize] == nm {
-                vi += 1;
+        if mode == Mode::Generic {
+            let mut next = name_base_free;
+            for &v in &corner_vertex {
+                if vname[v as usize] == u64::MAX {
+                    vname[v as usize] = next;
+                    next += 1;
+                }
             }
-            if pn == Some(nm) {
-                pi += 1;
+            for n in &mut vname {
+                if *n == u64::MAX {
+                    *n = next;
+                    next += 1;
+                }
             }
-            names.push((nm, first, vi as u32 - first));
         }
-    }
-    let extras: Vec<u64> = names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
-    put_varint(&mut st.0[s::EXTRA_NAMES], extras.len() as u64);
-    for (i, &n) in extras.iter().enumerate() {
-        put_varint(&mut st.0[s::EXTRA_NAMES], if i == 0 { n } else { n - extras[i - 1] - 1 });
-    }
-    let splits: Vec<(usize, u32)> = names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
-    put_varint(&mut st.0[s::SPLITS], splits.len() as u64);
-    for (j, &(i, count)) in splits.iter().enumerate() {
-        put_varint(&mut st.0[s::SPLITS], if j == 0 { i as u64 } else { (i - splits[j - 1].0 - 1) as u64 });
-        put_varint(&mut st.0[s::SPLITS], u64::from(count));
-    }
-    // Corners (§5.6).
-    let mut indices = Vec::with_capacity(corner_vertex.len());
-    let mut exceptions: Vec<(usize, u32)> = Vec::new();
-    let mut prev_explicit = 0i64;
-    for (c, &v) in corner_vertex.iter().enumerate() {
-        let nvx = vnew[v as usize];
-        indices.push(nvx);
-        if pred[c] == u64::MAX {
-            put_varint(&mut st.0[s::CORNERS], zigzag(i64::from(nvx) - prev_explicit));
-            prev_explicit = i64::from(nvx);
-            continue;
+        let mut vorder: Vec<u32> = (0..nv as u32).collect();
+        vorder.sort_by_key(|&v| (vname[v as usize], first_seen[v as usize], v));
+        let mut vnew = vec![0u32; nv];
+        for (new, &old) in vorder.iter().enumerate() {
+            vnew[old as usize] = new as u32;
         }
-        if vname[v as usize] != pred[c] {
-            exceptions.push((c, nvx));
-            pos[c] = NO_POS;
-            continue;
+        let mut predicted: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
+        predicted.sort_unstable();
+        predicted.dedup();
+        // The name set (predicted names and the vertices' names), each with its first vertex and count.
+        let mut names: Vec<(u64, u32, u32)> = Vec::with_capacity(predicted.len() + 16);
+        {
+            let mut vi = 0usize;
+            let mut pi = 0usize;
+            loop {
+                let vn = vorder.get(vi).map(|&v| vname[v as usize]);
+                let pn = predicted.get(pi).copied();
+                let nm = match (vn, pn) {
+                    (None, None) => break,
+                    (Some(a), Some(b)) => a.min(b),
+                    (Some(a), None) => a,
+                    (None, Some(b)) => b,
+                };
+                let first = vi as u32;
+                while vi < vorder.len() && vname[vorder[vi] as usize] == nm {
+                    vi += 1;
+                }
+                if pn == Some(nm) {
+                    pi += 1;
+                }
+                names.push((nm, first, vi as u32 - first));
+            }
         }
-        let i = names.binary_search_by_key(&pred[c], |n| n.0).expect("name present");
-        if names[i].2 > 1 {
-            put_varint(&mut st.0[s::CHOICES], u64::from(nvx - names[i].1));
+        let extras: Vec<u64> = names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
+        put_varint(&mut st.0[s::EXTRA_NAMES], extras.len() as u64);
+        for (i, &n) in extras.iter().enumerate() {
+            put_varint(&mut st.0[s::EXTRA_NAMES], if i == 0 { n } else { n - extras[i - 1] - 1 });
         }
-    }
-    put_varint(&mut st.0[s::EXCEPTIONS], exceptions.len() as u64);
-    for (j, &(c, v)) in exceptions.iter().enumerate() {
-        put_varint(&mut st.0[s::EXCEPTIONS], if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
-        put_varint(&mut st.0[s::EXCEPTIONS], u64::from(v));
-    }
+        let splits: Vec<(usize, u32)> =
+            names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
+        put_varint(&mut st.0[s::SPLITS], splits.len() as u64);
+        for (j, &(i, count)) in splits.iter().enumerate() {
+            put_varint(&mut st.0[s::SPLITS], if j == 0 { i as u64 } else { (i - splits[j - 1].0 - 1) as u64 });
+            put_varint(&mut st.0[s::SPLITS], u64::from(count));
+        }
+        // Corners (§5.6).
+        let mut indices = Vec::with_capacity(corner_vertex.len());
+        let mut exceptions: Vec<(usize, u32)> = Vec::new();
+        let mut prev_explicit = 0i64;
+        for (c, &v) in corner_vertex.iter().enumerate() {
+            let nvx = vnew[v as usize];
+            indices.push(nvx);
+            if pred[c] == u64::MAX {
+                put_varint(&mut st.0[s::CORNERS], zigzag(i64::from(nvx) - prev_explicit));
+                prev_explicit = i64::from(nvx);
+                continue;
+            }
+            if vname[v as usize] != pred[c] {
+                exceptions.push((c, nvx));
+                pos[c] = NO_POS;
+                continue;
+            }
+            let i = names.binary_search_by_key(&pred[c], |n| n.0).expect("name present");
+            if names[i].2 > 1 {
+                put_varint(&mut st.0[s::CHOICES], u64::from(nvx - names[i].1));
+            }
+        }
+        put_varint(&mut st.0[s::EXCEPTIONS], exceptions.len() as u64);
+        for (j, &(c, v)) in exceptions.iter().enumerate() {
+            put_varint(&mut st.0[s::EXCEPTIONS], if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
+            put_varint(&mut st.0[s::EXCEPTIONS], u64::from(v));
+        }
+        (indices, vorder)
+    };
 
     // Face structure streams (§5.3, §5.4).
     let mut level = PlainLevel { offsets, indices, ..PlainLevel::default() };
@@ -342,7 +354,7 @@ pub fn encode_level(
             mask[usize::from(q) / 8] |= 1 << (q % 8);
             sub_iter.next();
         }
-        if mode == Mode::Lattice && n != 4 {
+        if mode.is_lattice() && n != 4 {
             unreachable!("lattice parents are quads");
         }
         st.0[s::CHILD_MASKS].extend(mask);
@@ -384,7 +396,7 @@ pub fn encode_level(
     level.q = if input.q.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.q[v as usize]).collect() };
     level.exact =
         if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
-    let quads = if mode == Mode::Lattice { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
+    let quads = if mode.is_lattice() { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
     let mut line_shift = 0u32;
     if !input.topology_only {
@@ -401,10 +413,10 @@ pub fn encode_level(
                     (predictor, line_shift) = variant;
                 }
             };
-            if mode == Mode::Lattice {
+            if mode.is_lattice() {
                 consider(geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (1, 0)).0, (1, 0), &mut st);
             }
-            let line_predictors: &[u8] = if mode == Mode::Lattice { &[0, 1] } else { &[0] };
+            let line_predictors: &[u8] = if mode.is_lattice() { &[0, 1] } else { &[0] };
             for &p in line_predictors {
                 let variant = p | PREDICTOR_LINES;
                 let (bytes, js) = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, 0));
@@ -453,6 +465,9 @@ fn geometry(
     (predictor, line_shift): (u8, u32),
 ) -> (Vec<u8>, Vec<i64>) {
     let mut g = Vec::new();
+    if mode == Mode::FastLattice && !exact {
+        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift));
+    }
     if exact {
         for a in 0..3 {
             let vals: Vec<u64> = level.exact.iter().map(|p| p[a].to_bits()).collect();
@@ -519,6 +534,155 @@ fn geometry(
         put_planes(&mut g, r);
     }
     (g, js)
+}
+
+/// The geometry stream of a mode 3 level (spec §6.8) of a grid file.
+fn fast_geometry(
+    level: &PlainLevel,
+    k: u32,
+    bits: u32,
+    parent: &PlainLevel,
+    pos: &[u8],
+    quads: &[([u32; 4], u8)],
+    (predictor, line_shift): (u8, u32),
+) -> (Vec<u8>, Vec<i64>) {
+    let nv = level.q.len();
+    let lines = predictor & PREDICTOR_LINES != 0;
+    let mut contexts = fast::Contexts::default();
+    fast::contexts(&level.indices, &level.parents, &level.quadrants, pos, quads, nv, &mut contexts);
+    let topo = fast::FastTopo {
+        level: k,
+        bits,
+        indices: &level.indices,
+        slots: level.slots.as_deref().unwrap_or_default(),
+        vertex_corners: level.corners.as_deref().unwrap_or_default(),
+        contexts: &contexts,
+        parent_quads: quads,
+        lines,
+        line_shift,
+        predictor: predictor & 1,
+    };
+    let target = &level.q;
+    let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
+    let mut params = Vec::new();
+    let mut js = Vec::new();
+    let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
+    let mut order = Vec::with_capacity(if lines { 0 } else { nv });
+    let mut q = vec![[0i64; 3]; nv];
+    let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
+        let t = target[v];
+        if let Some(j) = pr.line.and_then(|l| l.param(t)) {
+            flags[v / 8] |= 1 << (v % 8);
+            params.push(zigzag(j - pr.param));
+            js.push(j);
+            return Ok(t);
+        }
+        for a in 0..3 {
+            res[a].push(zigzag(t[a] - pr.point[a]));
+        }
+        order.push(v as u32);
+        Ok(t)
+    });
+    let mut g = Vec::new();
+    if lines {
+        g.extend(&flags);
+        put_planes(&mut g, &params);
+    } else {
+        for r in &mut res {
+            let mut by_vertex = vec![0u64; nv];
+            for (i, &v) in order.iter().enumerate() {
+                by_vertex[v as usize] = r[i];
+            }
+            *r = by_vertex;
+        }
+    }
+    for r in &res {
+        put_planes(&mut g, r);
+    }
+    (g, js)
+}
+
+/// Mode 3's vertex numbering (spec §5.9): vertices by first use in corner order, the split keys,
+/// exceptions and choices, and the vertices no corner uses. Returns the corners' new vertex
+/// indices and the input index of every new vertex.
+fn fast_names(
+    k: u32,
+    corners: &[[u32; 3]],
+    corner_vertex: &[u32],
+    pred: &[u64],
+    pos: &mut [u8],
+    nv: usize,
+    st: &mut Streams,
+) -> (Vec<u32>, Vec<u32>) {
+    let vkey: Vec<u64> = corners.iter().map(|&c| lattice::corner_key(c, k)).collect();
+    let mut used = vec![false; nv];
+    for &v in corner_vertex {
+        used[v as usize] = true;
+    }
+    // Keys of two or more vertices that corners use are split keys.
+    let mut keyed: Vec<u64> = (0..nv).filter(|&v| used[v]).map(|v| vkey[v]).collect();
+    keyed.sort_unstable();
+    let mut split_keys: Vec<u64> = keyed.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
+    split_keys.dedup();
+    put_varint(&mut st.0[s::SPLITS], split_keys.len() as u64);
+    for (i, &key) in split_keys.iter().enumerate() {
+        put_varint(&mut st.0[s::SPLITS], if i == 0 { key } else { key - split_keys[i - 1] - 1 });
+    }
+    let mut lists: std::collections::BTreeMap<u64, Vec<u32>> =
+        split_keys.iter().map(|&key| (key, Vec::new())).collect();
+    let mut vnew = vec![u32::MAX; nv];
+    let mut vorder: Vec<u32> = Vec::with_capacity(nv);
+    let mut indices = Vec::with_capacity(corner_vertex.len());
+    let mut exceptions: Vec<(usize, u32, Option<i64>)> = Vec::new();
+    for (c, &v) in corner_vertex.iter().enumerate() {
+        let vi = v as usize;
+        let new = vnew[vi] == u32::MAX;
+        if new {
+            vnew[vi] = vorder.len() as u32;
+            vorder.push(v);
+        }
+        let x = vnew[vi];
+        indices.push(x);
+        if vkey[vi] != pred[c] {
+            exceptions.push((c, x, new.then(|| vkey[vi] as i64 - pred[c] as i64)));
+            pos[c] = NO_POS;
+            if new {
+                if let Some(l) = lists.get_mut(&vkey[vi]) {
+                    l.push(x);
+                }
+            }
+            continue;
+        }
+        if let Some(l) = lists.get_mut(&pred[c]) {
+            let o = l.iter().position(|&y| y == x).unwrap_or_else(|| {
+                l.push(x);
+                l.len() - 1
+            });
+            put_varint(&mut st.0[s::CHOICES], o as u64);
+        }
+    }
+    let e = &mut st.0[s::EXCEPTIONS];
+    put_varint(e, exceptions.len() as u64);
+    for (j, &(c, x, key)) in exceptions.iter().enumerate() {
+        put_varint(e, if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
+        put_varint(e, u64::from(x));
+        if let Some(d) = key {
+            put_varint(e, zigzag(d));
+        }
+    }
+    // Vertices no corner uses, by key.
+    let mut extras: Vec<u32> = (0..nv as u32).filter(|&v| !used[v as usize]).collect();
+    extras.sort_by_key(|&v| (vkey[v as usize], v));
+    let r = &mut st.0[s::EXTRA_NAMES];
+    put_varint(r, extras.len() as u64);
+    let mut prev = 0i64;
+    for &v in &extras {
+        let key = vkey[v as usize] as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+        vorder.push(v);
+    }
+    (indices, vorder)
 }
 
 /// The largest line spacing exponent (spec §6.6) that at least 15 in 16 of the nonzero line

@@ -37,8 +37,8 @@ pub enum Error {
     },
     /// The file's format version is not one this reader implements.
     #[error(
-        "unsupported MRQ format version {found} at byte 8 (this reader implements version {})",
-        crate::FORMAT_VERSION
+        "unsupported MRQ format version {found} at byte 8 (this reader implements versions 1 to {})",
+        crate::LATEST_FORMAT_VERSION
     )]
     UnsupportedVersion {
         /// The version found.

@@ -52,6 +52,17 @@ pub enum Mode {
     Generic = 1,
     /// A refinement named by octree lattice points.
     Lattice = 2,
+    /// Format version 3: a lattice refinement with vertices numbered by first use and integer
+    /// geometry from the parent (spec §5.9, §6.8).
+    FastLattice = 3,
+}
+
+impl Mode {
+    /// Whether the level is a lattice refinement (mode 2 or 3): faces on slots, named by lattice
+    /// keys.
+    pub fn is_lattice(self) -> bool {
+        matches!(self, Mode::Lattice | Mode::FastLattice)
+    }
 }
 
 /// Block flag: the level carries lattice coordinates.

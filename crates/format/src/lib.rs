@@ -49,6 +49,12 @@
 //!   [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines along their tangent
 //!   planes (a co-design with reconstruction, see `docs/format-notes.md`), so the file stores what
 //!   the caller holds exactly; vertices elsewhere still round-trip within half a step.
+//! * **Format version 3, for decoding speed** (spec §5.9, §6.8; [`EncodeOptions::version`]):
+//!   lattice refinements in mode 3 keep mode 2's face streams but number vertices by first use (a
+//!   key table, no sorted name set) and predict geometry in integers from the parent alone (a
+//!   fixed-point line along the parent quad's exact normal, the parameter of the parent surface's
+//!   point predicted); about 1.7 times fewer decoder instructions per vertex than version 2 at
+//!   the same size (`tools/bench/RESULTS.md`). Version 2 stays the default for now.
 //! * **Byte planes + zstd**: residuals and symbols go to separate streams, least significant
 //!   byte planes first, one zstd frame per level. Measured against the order-0 entropy of the
 //!   residuals, zstd is within about 3 % on the bunny and dragon hierarchies, so an adaptive
@@ -61,6 +67,7 @@ mod container;
 mod decode;
 mod encode;
 mod error;
+mod fast;
 mod lattice;
 mod level;
 mod lines;
@@ -81,8 +88,11 @@ use decode::{GridInfo, PlainLevel};
 use encode::InputLevel;
 use level::NO_PARENT;
 
-/// The format version this crate writes (spec §1); it reads this one and version 1.
+/// The format version this crate writes by default (spec §3.1); [`EncodeOptions::version`] selects
+/// another.
 pub const FORMAT_VERSION: u16 = 2;
+/// The newest format version this crate reads and writes; it reads every version from 1 to this.
+pub const LATEST_FORMAT_VERSION: u16 = 3;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 
@@ -108,11 +118,20 @@ pub struct EncodeOptions {
     pub zstd_level: i32,
     /// Units, source and further key-value pairs to record.
     pub metadata: Metadata,
+    /// Format version to write, 2 or 3 (default [`FORMAT_VERSION`]). Version 3 codes lattice
+    /// refinements in mode 3 (spec §5.9, §6.8: vertices numbered by first use, integer geometry
+    /// from the parent), which decodes several times faster.
+    pub version: u16,
 }
 
 impl Default for EncodeOptions {
     fn default() -> Self {
-        Self { quantization: Quantization::Bits(16), zstd_level: 19, metadata: Metadata::default() }
+        Self {
+            quantization: Quantization::Bits(16),
+            zstd_level: 19,
+            metadata: Metadata::default(),
+            version: FORMAT_VERSION,
+        }
     }
 }
 
@@ -369,6 +388,17 @@ fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> {
     }
 }
 
+/// Fails unless `opts.version` is a version this crate writes (2 or 3).
+fn check_version(opts: &EncodeOptions) -> Result<(), EncodeError> {
+    if !(2..=LATEST_FORMAT_VERSION).contains(&opts.version) {
+        return Err(EncodeError::Options(format!(
+            "format version {} cannot be written (2..={LATEST_FORMAT_VERSION})",
+            opts.version
+        )));
+    }
+    Ok(())
+}
+
 /// Encodes `h` into a byte vector. See [`encode_to`].
 pub fn encode(h: &Hierarchy, opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
     Ok(encode_inner(h, opts)?.0)
@@ -398,12 +428,14 @@ fn encode_levels(
         return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
     }
     h.check_links()?;
+    check_version(opts)?;
     let grid = choose_grid(h, opts.quantization)?;
     let mut parent: Option<PlainLevel> = None;
     let mut parent_face_new: Vec<u32> = Vec::new();
     for k in 0..h.levels.len() {
         let input = input_level(h, k, &grid, &parent_face_new)?;
-        let enc = encode::encode_level(k as u32, &input, parent.as_ref(), grid.exact, grid.tied, grid.bits)?;
+        let enc =
+            encode::encode_level(k as u32, &input, parent.as_ref(), grid.exact, grid.tied, grid.bits, opts.version)?;
         each(&enc)?;
         parent_face_new = enc.face_new;
         parent = Some(enc.level);
@@ -497,7 +529,7 @@ fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<Lev
     let (cube_min, cube_max) = h.cube.map_or(([0.0; 3], [0.0; 3]), |c| (c.min.to_array(), c.max.to_array()));
     let header = FileHeader {
         magic: MAGIC,
-        version: FORMAT_VERSION,
+        version: opts.version,
         header_size: HEADER_SIZE as u16,
         flags,
         level_count: blocks.len() as u32,

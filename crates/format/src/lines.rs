@@ -13,6 +13,7 @@ use octowrap_mesh::{Aabb, DVec3, Hierarchy, Mesh};
 use crate::decode::PlainLevel;
 use crate::encode::{self, Encoded};
 use crate::error::EncodeError;
+use crate::fast::{self, FixedLine};
 use crate::level::{
     GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL,
     Topo, geometry_pass,
@@ -102,11 +103,11 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
     let mut parent: Option<PlainLevel> = None;
     let mut parent_face_new: Vec<u32> = Vec::new();
     for k in 0..h.levels.len() {
-        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
+        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref(), opts.version)?;
         let Some(pl) = parent.as_ref().filter(|_| k >= LinePlacement::first_placed_level()) else {
             stats.without_line += enc.vertex_old.len();
             snap(&mut h.levels[k].mesh.vertices.positions, &grid, guard.as_ref(), |_| true);
-            let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
+            let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref(), opts.version)?;
             parent_face_new = enc.face_new;
             parent = Some(enc.level);
             continue;
@@ -119,16 +120,17 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
             ((voxel / grid.step / LINE_POINTS_PER_VOXEL).log2().floor().max(0.0) as u32).min(MAX_LINE_SHIFT);
         let normals = vertex_normals(&h.levels[k].mesh);
         let candidates: &[u8] =
-            if enc.mode == Mode::Lattice { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
+            if enc.mode.is_lattice() { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
         let mut best: Option<Candidate> = None;
         for &predictor in candidates {
-            let c = place_level(
+            let place = if enc.mode == Mode::FastLattice { place_level_fast } else { place_level };
+            let c = place(
                 &enc,
                 pl,
                 (k as u32, grid.bits, predictor, line_shift),
                 &h.levels[k].mesh.vertices.positions,
                 &normals,
-                |line, x, n| slide(line, x, n, &grid, limit, guard.as_ref()),
+                &|line: &dyn PlacementLine, x: DVec3, n: DVec3| slide(line, x, n, &grid, limit, guard.as_ref()),
                 limit,
             );
             if best.as_ref().is_none_or(|b| c.cost < b.cost) {
@@ -150,7 +152,7 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
         }
         snap(positions, &grid, guard.as_ref(), |v| !moved[v]);
         // The level as the encoder will now see it: the parent of the next.
-        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref())?;
+        let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref(), opts.version)?;
         parent_face_new = enc.face_new;
         parent = Some(enc.level);
     }
@@ -166,10 +168,11 @@ fn encode_one(
     grid: &Grid,
     parent_face_new: &[u32],
     parent: Option<&PlainLevel>,
+    version: u16,
 ) -> Result<Encoded, EncodeError> {
     let mut input = input_level(h, k, grid, parent_face_new)?;
     input.topology_only = true;
-    encode::encode_level(k as u32, &input, parent, grid.exact, grid.tied, grid.bits)
+    encode::encode_level(k as u32, &input, parent, grid.exact, grid.tied, grid.bits, version)
 }
 
 /// One lattice predictor's placement of a level: the moves (input vertex, new position), vertices
@@ -192,7 +195,7 @@ fn place_level(
     (k, bits, predictor, line_shift): (u32, u32, u8, u32),
     positions: &[DVec3],
     normals: &[DVec3],
-    mut slide: impl FnMut(&Line, DVec3, DVec3) -> Option<(DVec3, [i64; 3])>,
+    slide: &Slide<'_>,
     limit: f64,
 ) -> Candidate {
     let level = &enc.level;
@@ -234,21 +237,114 @@ fn place_level(
     c
 }
 
+/// Slides a vertex (position, normal) along a line: where it lands (world, grid), if it moves.
+type Slide<'a> = dyn Fn(&dyn PlacementLine, DVec3, DVec3) -> Option<(DVec3, [i64; 3])> + 'a;
+
+/// A prediction line as placement sees it: version 2's (spec §6.6) or mode 3's (§6.8).
+trait PlacementLine {
+    /// The point of parameter 0.
+    fn base(&self) -> [i64; 3];
+    /// The grid displacement of one parameter step (approximately, for the slide).
+    fn unit(&self) -> [f64; 3];
+    /// The grid point of parameter `j`.
+    fn point(&self, j: i64) -> [i64; 3];
+}
+
+impl PlacementLine for Line {
+    fn base(&self) -> [i64; 3] {
+        self.base
+    }
+    fn unit(&self) -> [f64; 3] {
+        self.u
+    }
+    fn point(&self, j: i64) -> [i64; 3] {
+        Line::point(self, j)
+    }
+}
+
+impl PlacementLine for FixedLine {
+    fn base(&self) -> [i64; 3] {
+        self.base
+    }
+    fn unit(&self) -> [f64; 3] {
+        FixedLine::unit(self)
+    }
+    fn point(&self, j: i64) -> [i64; 3] {
+        FixedLine::point(self, j)
+    }
+}
+
+/// [`place_level`] for a mode 3 level (spec §6.8): lines from [`fast::fast_pass`].
+#[allow(clippy::too_many_arguments)]
+fn place_level_fast(
+    enc: &Encoded,
+    parent: &PlainLevel,
+    (k, bits, predictor, line_shift): (u32, u32, u8, u32),
+    positions: &[DVec3],
+    normals: &[DVec3],
+    slide: &Slide<'_>,
+    limit: f64,
+) -> Candidate {
+    let level = &enc.level;
+    let nv = level.q.len();
+    let mut contexts = fast::Contexts::default();
+    fast::contexts(&level.indices, &level.parents, &level.quadrants, &enc.pos, &enc.parent_quads, nv, &mut contexts);
+    let topo = fast::FastTopo {
+        level: k,
+        bits,
+        indices: &level.indices,
+        slots: level.slots.as_deref().unwrap_or_default(),
+        vertex_corners: level.corners.as_deref().unwrap_or_default(),
+        contexts: &contexts,
+        parent_quads: &enc.parent_quads,
+        lines: true,
+        line_shift,
+        predictor,
+    };
+    let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
+    let mut q = vec![[0i64; 3]; nv];
+    let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
+        let old = enc.vertex_old[v];
+        let x = positions[old as usize];
+        let Some(line) = pr.line else {
+            c.none += 1;
+            return Ok(level.q[v]);
+        };
+        if let Some((p, g)) = slide(&line, x, normals[old as usize]) {
+            c.cost += (p - x).length_squared();
+            c.moves.push((old, p));
+            Ok(g)
+        } else {
+            c.kept += 1;
+            c.cost += limit * limit;
+            Ok(level.q[v])
+        }
+    });
+    c
+}
+
 /// Where `x` lands when it slides along `line` to its tangent plane (normal `n`), snapped to the
 /// line's nearest grid point; `None` when it should stay.
-fn slide(line: &Line, x: DVec3, n: DVec3, grid: &Grid, limit: f64, guard: Option<&Aabb>) -> Option<(DVec3, [i64; 3])> {
+fn slide(
+    line: &dyn PlacementLine,
+    x: DVec3,
+    n: DVec3,
+    grid: &Grid,
+    limit: f64,
+    guard: Option<&Aabb>,
+) -> Option<(DVec3, [i64; 3])> {
     if let Some(b) = guard {
         // A vertex on the bounding box holds the grid in place.
         if (0..3).any(|a| x[a] <= b.min[a] || x[a] >= b.max[a]) {
             return None;
         }
     }
-    let u = DVec3::from_array(line.u);
+    let u = DVec3::from_array(line.unit());
     let un = u.dot(n);
     if n == DVec3::ZERO || un.abs() < MIN_COSINE * u.length() {
         return None;
     }
-    let base = grid.position(line.base);
+    let base = grid.position(line.base());
     // World point of parameter s: base + s * step * u.
     let s = (x - base).dot(n) / (un * grid.step);
     if !s.is_finite() || s.abs() > LINE_PARAM_LIMIT as f64 {

@@ -78,7 +78,28 @@ fn valid_set() -> Vec<(&'static str, Vec<u8>)> {
             "cube3_generic_lines_q12",
             encode(&placed(without_lattice(cube_hierarchy(3, Edits::default(), 5))), &q(12)).unwrap(),
         ),
+        // Format version 3 (spec §5.9, §6.8): lattice refinements in mode 3.
+        ("v3_cube3_lattice_q12", encode(&cube_hierarchy(3, Edits::default(), 3), &v3(q(12))).unwrap()),
+        ("v3_cube3_lattice_exact", encode(&cube_hierarchy(3, Edits::default(), 4), &v3(exact.clone())).unwrap()),
+        (
+            "v3_cube3_lattice_lines_q12",
+            encode(&placed_with(cube_hierarchy(3, Edits::default(), 3), &v3(q(12))), &v3(q(12))).unwrap(),
+        ),
+        ("v3_cube3_subdivision_q10", encode(&cube_hierarchy(3, Edits::none(), 6), &v3(q(10))).unwrap()),
+        ("v3_cube3_generic_q12", encode(&without_lattice(cube_hierarchy(3, Edits::default(), 5)), &v3(q(12))).unwrap()),
     ]
+}
+
+/// `opts` writing format version 3.
+fn v3(mut opts: EncodeOptions) -> EncodeOptions {
+    opts.version = 3;
+    opts
+}
+
+/// `h` with its vertices on their prediction lines under `opts`.
+fn placed_with(mut h: Hierarchy, opts: &EncodeOptions) -> Hierarchy {
+    place_on_prediction_lines(&mut h, opts).unwrap();
+    h
 }
 
 /// `h` with its vertices on their prediction lines of a 12-bit grid (spec §6.6).
@@ -94,6 +115,9 @@ fn regress_set() -> Vec<(&'static str, Vec<u8>)> {
         // the first decoder miscounted such levels.
         ("names_without_vertices_lattice", encode(&cube_hierarchy(3, joins, 8), &q(12)).unwrap()),
         ("names_without_vertices_generic", encode(&without_lattice(cube_hierarchy(3, joins, 9)), &q(12)).unwrap()),
+        // Version 3: keys whose every corner is an exception, split keys, exceptions numbering
+        // new vertices.
+        ("v3_splits_and_exceptions", encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap()),
     ]
 }
 
@@ -110,8 +134,8 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
     b[1] = b'X';
     out.push(("bad_magic.mrq", "BadMagic", "the second magic byte is `X`", b));
     let mut b = base.clone();
-    b[8] = 3;
-    out.push(("version_3.mrq", "UnsupportedVersion", "version 3", b));
+    b[8] = 4;
+    out.push(("version_4.mrq", "UnsupportedVersion", "version 4", b));
     out.push(("truncated_header.mrq", "Truncated", "the file ends inside the header", base[..60].to_vec()));
     let l1 = level1(&base);
     let cut = (l1.offset + l1.stored_size / 2) as usize;
@@ -168,6 +192,7 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
         reseal(&base, &p, None).unwrap(),
     ));
     out.extend(invalid_lines_set());
+    out.extend(invalid_v3_set());
     let mut p = good_payloads;
     p[1][64] |= 0xf0;
     out.push((
@@ -222,6 +247,57 @@ fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>
     out
 }
 
+/// Invalid files of format version 3 (spec §5.9, §6.8).
+fn invalid_v3_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
+    let mut out = Vec::new();
+    let joins = Edits { join: 0.3, split: 0.1, ..Edits::default() };
+    let base = encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap();
+    let mut b = base.clone();
+    b[8] = 2;
+    fix_preamble_checksum(&mut b);
+    out.push(("v3_mode_3_in_version_2.mrq", "Invalid", "a version 2 file with mode 3 levels", b));
+    let good = payloads(&base).unwrap();
+    let stream = |p: &[u8], i: usize| {
+        let sizes: Vec<usize> =
+            (0..12).map(|j| u32::from_le_bytes(p[16 + 4 * j..20 + 4 * j].try_into().unwrap()) as usize).collect();
+        64 + sizes[..i].iter().sum::<usize>()..64 + sizes[..=i].iter().sum::<usize>()
+    };
+    // Level 2's extra_names stream (6) says one vertex more than it holds.
+    let mut p = good.clone();
+    let r = stream(&p[2], 6);
+    p[2][r.start] += 1;
+    out.push((
+        "v3_extra_count.mrq",
+        "Invalid",
+        "level 2's extra_names count disagrees with vertex_count",
+        reseal(&base, &p, None).unwrap(),
+    ));
+    // Level 1's predictor byte sets a reserved bit.
+    let mut p = good.clone();
+    p[1][2] |= 4;
+    out.push((
+        "v3_reserved_predictor_bits.mrq",
+        "Invalid",
+        "level 1 (mode 3) sets predictor bit 2",
+        reseal(&base, &p, None).unwrap(),
+    ));
+    // Level 2's vertex count one higher in both the table and the block: corners number fewer.
+    let mut p = good;
+    let nv = u32::from_le_bytes(p[2][4..8].try_into().unwrap());
+    p[2][4..8].copy_from_slice(&(nv + 1).to_le_bytes());
+    let info = octowrap_format::read_info(&base[..], &Limits::default()).unwrap();
+    let mut counts: Vec<(u32, u32, u32)> =
+        info.levels.iter().map(|l| (l.vertex_count, l.face_count, l.corner_count)).collect();
+    counts[2].0 += 1;
+    out.push((
+        "v3_vertex_count_high.mrq",
+        "Invalid",
+        "level 2 claims one vertex more than its corners and extras number",
+        reseal(&base, &p, Some(&counts)).unwrap(),
+    ));
+    out
+}
+
 fn kind(e: &Error) -> &'static str {
     match e {
         Error::BadMagic { .. } => "BadMagic",
@@ -256,7 +332,10 @@ fn check_valid(sub: &str) -> usize {
         let want = std::fs::read_to_string(path.with_extension("json")).unwrap();
         assert_eq!(dump(&file.hierarchy), want, "{}: decoded levels differ from the golden dump", path.display());
         // Re-encoding the decoded hierarchy exactly and decoding again changes nothing.
-        let again = encode(&file.hierarchy, &EncodeOptions::with_quantization(Quantization::Exact)).unwrap();
+        // (In the file's own version: versions 2 and 3 order vertices differently.)
+        let mut exact = EncodeOptions::with_quantization(Quantization::Exact);
+        exact.version = file.info.version.max(2);
+        let again = encode(&file.hierarchy, &exact).unwrap();
         let back = decode(&again[..], &DecodeOptions::default()).unwrap();
         assert_eq!(back.hierarchy, file.hierarchy, "{}", path.display());
         n += 1;
@@ -286,7 +365,7 @@ fn the_encoder_still_writes_the_valid_files() {
         return; // the other tests are rewriting the files
     }
     for (name, bytes) in valid_set().into_iter().chain(regress_set()) {
-        let sub = if name.starts_with("names_without") { "regress" } else { "valid" };
+        let sub = if name.starts_with("names_without") || name.starts_with("v3_splits") { "regress" } else { "valid" };
         assert!(!name.starts_with("version1_"), "version 1 files are kept, not regenerated");
         let on_disk = std::fs::read(dir(sub).join(format!("{name}.mrq"))).unwrap();
         assert_eq!(bytes, on_disk, "{name}: the encoder's output changed; regenerate on purpose (see module docs)");

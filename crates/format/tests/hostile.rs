@@ -21,7 +21,22 @@ fn samples() -> Vec<Vec<u8>> {
         // Line geometry (spec §6.6), lattice and generic.
         encode(&placed(cube_hierarchy(3, Edits::default(), 4), &q12), &q12).unwrap(),
         encode(&placed(without_lattice(cube_hierarchy(3, Edits::default(), 5)), &q12), &q12).unwrap(),
+        // Format version 3 (spec §5.9, §6.8): mode 3 levels, with and without lines, and exact.
+        encode(&cube_hierarchy(3, Edits { split: 0.1, join: 0.1, ..Edits::default() }, 6), &v3(Quantization::Bits(12)))
+            .unwrap(),
+        encode(
+            &placed(cube_hierarchy(3, Edits::default(), 7), &v3(Quantization::Bits(12))),
+            &v3(Quantization::Bits(12)),
+        )
+        .unwrap(),
+        encode(&cube_hierarchy(2, Edits::default(), 8), &v3(Quantization::Exact)).unwrap(),
     ]
+}
+
+fn v3(q: Quantization) -> EncodeOptions {
+    let mut o = EncodeOptions::with_quantization(q);
+    o.version = 3;
+    o
 }
 
 fn placed(mut h: Hierarchy, opts: &EncodeOptions) -> Hierarchy {

@@ -23,7 +23,19 @@ fn row(name: &str, h: &Hierarchy) {
 /// warm-up decode (the decoder keeps its working buffers per thread, as a program decoding many
 /// files would).
 fn row_runs(name: &str, h: &Hierarchy, encode_runs: usize) {
-    let opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+    row_version(name, h, encode_runs, octowrap_format::FORMAT_VERSION);
+}
+
+/// Format version 3 (spec §5.9, §6.8): q12 options writing version 3.
+fn v3() -> EncodeOptions {
+    let mut o = EncodeOptions::with_quantization(Quantization::Bits(12));
+    o.version = 3;
+    o
+}
+
+fn row_version(name: &str, h: &Hierarchy, encode_runs: usize, version: u16) {
+    let mut opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+    opts.version = version;
     let (enc_s, (bytes, stats)) = best_of(encode_runs, || encode_with_stats(h, &opts).expect("encodes"));
     let _ = decode(&bytes[..], &DecodeOptions::default()).expect("decodes");
     let (dec_s, dec_cpu, file) = best_of_cpu(5, || decode(&bytes[..], &DecodeOptions::default()).expect("decodes"));
@@ -122,6 +134,13 @@ pub fn report() {
     let mut big = cube_hierarchy(9, Edits::default(), 1);
     let _ = place_on_prediction_lines(&mut big, &q12).expect("places");
     row_runs("synthetic cube, lattice, placed on lines, 9 levels", &big, 1);
+    row_version("synthetic cube, lattice, v3", &cube_hierarchy(8, Edits::default(), 1), 3, 3);
+    let mut placed3 = cube_hierarchy(8, Edits::default(), 1);
+    let _ = place_on_prediction_lines(&mut placed3, &v3()).expect("places");
+    row_version("synthetic cube, lattice, placed on v3 lines, v3", &placed3, 3, 3);
+    let mut big3 = cube_hierarchy(9, Edits::default(), 1);
+    let _ = place_on_prediction_lines(&mut big3, &v3()).expect("places");
+    row_version("synthetic cube, lattice, placed on v3 lines, 9 levels, v3", &big3, 1, 3);
     let mut models = Vec::new();
     match shared_data() {
         Some(dir) => {
@@ -137,6 +156,10 @@ pub fn report() {
                         (p, s)
                     });
                     row(&format!("{name} (recon, placed on lines)"), &placed);
+                    row_version(&format!("{name} (recon, v3)"), &h, 3, 3);
+                    let mut placed3 = h.clone();
+                    let _ = place_on_prediction_lines(&mut placed3, &v3()).expect("places");
+                    row_version(&format!("{name} (recon, placed on v3 lines, v3)"), &placed3, 3, 3);
                     models.push((name, cloud, h, placed, stats, secs));
                 }
             }

@@ -1,0 +1,731 @@
+//! Format version 3's lattice refinement, level mode 3 (spec §5.9, §6.8): the topology and
+//! geometry of mode 2 redesigned for decoding speed.
+//!
+//! Why: a version 2 lattice level costs its decoder about 2,000 instructions per vertex (see
+//! `tools/bench/RESULTS.md`), mostly for rules of the format itself: ranking every corner's
+//! predicted name among the sorted names of the level (§5.5), binary64 predictors (§6.3, §6.6) and
+//! averaged biases of all neighbours (§6.2). Mode 3 keeps mode 2's face streams (child masks,
+//! depth bits, created-face keys, rotation bytes: the same bits) and changes the rest:
+//!
+//! * **Vertices are numbered by first use** in corner order. A corner's predicted lattice key finds
+//!   its vertex in a per-level open-addressing table (a lookup, no sort, no ranking); keys with
+//!   several vertices are listed once (`splits`) and their corners pick one by ordinal (`choices`).
+//! * **Geometry in integers from the parent alone**: a vertex with a parent context is predicted at
+//!   the parent quad's bilinear point above its lattice position (the stencil of §6.3 with the
+//!   quantities known from the corner's canonical position, no lattice coordinates needed), and its
+//!   line runs along the parent quad's normal `(G_2 - G_0) x (G_3 - G_1)`, exact in `i64`, scaled by
+//!   a power of two into a 12-bit fixed-point direction (no division). The line parameter is
+//!   predicted as 0 (no neighbour averaging). A vertex without a context is predicted from the two
+//!   neighbours of its first corner and lined up along its first face's axis.
+//!
+//! Encoder, decoder and line placement share [`fast_pass`] and [`contexts`], so they cannot
+//! disagree on a prediction.
+
+use crate::bytes::Reader;
+use crate::error::Error;
+use crate::lattice::{self, CornerKeys};
+use crate::level::{GRID_LIMIT, NO_PARENT, NO_POS, NONE};
+
+/// Fraction bits of a mode 3 line direction (spec §6.8).
+pub const DIRECTION_FRACTION_BITS: u32 = 12;
+
+/// In-plane offsets `(u, w)` of a slot's canonical corners (spec §5.3).
+const OFFSETS: [(u8, u8); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
+
+/// Bilinear weights of the parent's canonical corners at stencil position `(a, b)`, `a, b` in
+/// `0..3`, indexed `3 a + b` (spec §6.3's `(2-a)(2-b), a(2-b), ab, (2-a)b`).
+const WEIGHTS: [[i64; 4]; 9] = {
+    let mut t = [[0i64; 4]; 9];
+    let mut i = 0;
+    while i < 9 {
+        let (a, b) = ((i / 3) as i64, (i % 3) as i64);
+        t[i] = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
+        i += 1;
+    }
+    t
+};
+
+/// `rotated(r, i)` of spec §5.2 for every rotation byte `r < 8` and corner `i < 4`.
+const ROTATED: [[u8; 4]; 8] = {
+    let mut t = [[0u8; 4]; 8];
+    let mut r = 0;
+    while r < 8 {
+        let mut i = 0;
+        while i < 4 {
+            let turn = r & 3;
+            t[r][i] = (if r & 4 == 0 { (turn + i) % 4 } else { (turn + 4 - i) % 4 }) as u8;
+            i += 1;
+        }
+        r += 1;
+    }
+    t
+};
+
+/// A mode 3 prediction line (spec §6.8): the grid points
+/// `base + ((j * u + 2^(F-1)) >> F)` for integer `j`, `F` = [`DIRECTION_FRACTION_BITS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FixedLine {
+    /// The point of parameter 0.
+    pub base: [i64; 3],
+    /// The direction, fixed point with `F` fraction bits; its largest component has magnitude in
+    /// `[2^(shift + F), 2^(shift + F + 1))`.
+    pub u: [i64; 3],
+}
+
+impl FixedLine {
+    /// The grid point of parameter `j` (`|j| <= 2^30`; no overflow: `|u| < 2^29`).
+    #[inline]
+    pub fn point(&self, j: i64) -> [i64; 3] {
+        let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
+        [
+            self.base[0] + ((j * self.u[0] + half) >> DIRECTION_FRACTION_BITS),
+            self.base[1] + ((j * self.u[1] + half) >> DIRECTION_FRACTION_BITS),
+            self.base[2] + ((j * self.u[2] + half) >> DIRECTION_FRACTION_BITS),
+        ]
+    }
+
+    /// The axis of the largest direction component (the first of equal ones).
+    fn main_axis(&self) -> usize {
+        let m = self.u.map(i64::unsigned_abs);
+        if m[0] >= m[1] && m[0] >= m[2] {
+            0
+        } else if m[1] >= m[2] {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// The parameter of grid point `q` when `q` lies on the line (`|j| <= 2^30`).
+    pub fn param(&self, q: [i64; 3]) -> Option<i64> {
+        let a = self.main_axis();
+        let d = i128::from(q[a].checked_sub(self.base[a])?);
+        let u = i128::from(self.u[a]);
+        if u == 0 {
+            return None;
+        }
+        // Near d * 2^F / u; the rounding of `point` moves it by less than one.
+        let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
+        for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
+            let Ok(j) = i64::try_from(j) else { continue };
+            if j.abs() <= crate::level::LINE_PARAM_LIMIT && self.point(j) == q {
+                return Some(j);
+            }
+        }
+        None
+    }
+
+    /// The grid displacement of one parameter step, as binary64 (for line placement).
+    pub fn unit(&self) -> [f64; 3] {
+        let s = f64::from(1u32 << DIRECTION_FRACTION_BITS);
+        self.u.map(|x| x as f64 / s)
+    }
+}
+
+/// The mode 3 direction of normal `n` (spec §6.8): `n` scaled by a power of two so that its largest
+/// component has magnitude in `[2^(shift + F), 2^(shift + F + 1))`; `(0, 0, 2^(shift + F))` for a zero
+/// normal. `|n_a| < 2^62`, `shift <= 16`.
+#[inline]
+pub fn direction(n: [i64; 3], shift: u32) -> [i64; 3] {
+    let m = n[0].unsigned_abs().max(n[1].unsigned_abs()).max(n[2].unsigned_abs());
+    let top = shift + DIRECTION_FRACTION_BITS;
+    if m == 0 {
+        return [0, 0, 1 << top];
+    }
+    let len = 64 - m.leading_zeros(); // bit length, >= 1
+    if len > top + 1 {
+        let e = len - 1 - top;
+        [n[0] >> e, n[1] >> e, n[2] >> e]
+    } else {
+        let e = top + 1 - len;
+        [n[0] << e, n[1] << e, n[2] << e]
+    }
+}
+
+/// What [`fast_pass`] predicts for one vertex: the point (base of the line) and, in a `LINES`
+/// level, the line.
+#[derive(Clone, Copy, Debug)]
+pub struct FastPrediction {
+    /// The predicted point, clamped to the grid range.
+    pub point: [i64; 3],
+    /// The vertex's prediction line (`LINES` levels).
+    pub line: Option<FixedLine>,
+    /// The predicted line parameter.
+    pub param: i64,
+}
+
+/// Per vertex of a mode 3 level, what its geometry depends on (spec §6.8): its first corner, and
+/// its context's parent face and stencil position (`3 a + b`).
+#[derive(Clone, Debug, Default)]
+pub struct Contexts {
+    /// Per vertex: the first corner that uses it, or [`NONE`].
+    pub first: Vec<u32>,
+    /// Per vertex: the parent face of its context corner, or [`NONE`] (no context).
+    pub face: Vec<u32>,
+    /// Per vertex with a context: the stencil position `3 a + b` of its context corner.
+    pub stencil: Vec<u8>,
+}
+
+impl Contexts {
+    /// Bytes held.
+    pub fn capacity_bytes(&self) -> usize {
+        self.first.capacity() * 4 + self.face.capacity() * 4 + self.stencil.capacity()
+    }
+}
+
+/// The contexts of a mode 3 level (spec §6.8): per vertex its first corner, and its first corner
+/// that belongs to a subface and kept its canonical position (`pos[c] != NO_POS`), with the
+/// stencil position of that corner in the parent quad. Quads only (`indices.len() = 4 faces`).
+pub fn contexts(
+    indices: &[u32],
+    parents: &[u32],
+    quadrants: &[u8],
+    pos: &[u8],
+    parent_rotations: &[([u32; 4], u8)],
+    nv: usize,
+    out: &mut Contexts,
+) {
+    out.first.clear();
+    out.first.resize(nv, NONE);
+    out.face.clear();
+    out.face.resize(nv, NONE);
+    out.stencil.clear();
+    out.stencil.resize(nv, 0);
+    for (c, &v) in indices.iter().enumerate() {
+        let v = v as usize;
+        if out.first[v] == NONE {
+            out.first[v] = c as u32;
+        }
+        let s = pos[c];
+        if s != NO_POS && out.face[v] == NONE {
+            let f = c / 4;
+            let pf = parents[f];
+            debug_assert_ne!(pf, NO_PARENT);
+            let corner = ROTATED[usize::from(parent_rotations[pf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
+            let (du, dw) = OFFSETS[usize::from(corner)];
+            let (eu, ew) = OFFSETS[usize::from(s & 3)];
+            out.face[v] = pf;
+            out.stencil[v] = 3 * (du + eu) + (dw + ew);
+        }
+    }
+}
+
+/// Everything [`fast_pass`] reads about a mode 3 level.
+pub struct FastTopo<'a> {
+    /// Level index `k`.
+    pub level: u32,
+    /// Grid bits of the tied grid.
+    pub bits: u32,
+    /// Corner indices (quads: corner `c` is corner `c mod 4` of face `c / 4`).
+    pub indices: &'a [u32],
+    /// Per face: its lattice slot.
+    pub slots: &'a [([u32; 3], u8)],
+    /// Per vertex: its lattice corner.
+    pub vertex_corners: &'a [[u32; 3]],
+    /// Per vertex: first corner and context.
+    pub contexts: &'a Contexts,
+    /// Per parent face: its canonical quad (spec §5.3).
+    pub parent_quads: &'a [([u32; 4], u8)],
+    /// Line geometry.
+    pub lines: bool,
+    /// Line spacing exponent.
+    pub line_shift: u32,
+    /// `predictor` bit 0: 0 lines through lattice points, 1 through bilinear points.
+    pub predictor: u8,
+}
+
+#[inline]
+fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
+    let at = |x: u32| ((u64::from(x) << bits) >> depth) as i64;
+    [at(c[0]), at(c[1]), at(c[2])]
+}
+
+#[inline]
+fn clamp(p: [i64; 3]) -> [i64; 3] {
+    [p[0].clamp(-GRID_LIMIT, GRID_LIMIT), p[1].clamp(-GRID_LIMIT, GRID_LIMIT), p[2].clamp(-GRID_LIMIT, GRID_LIMIT)]
+}
+
+/// `S` of spec §6.8 (four times the bilinear point) at stencil position `stencil` (`3 a + b`) of
+/// the parent quad with grid points `g`.
+#[allow(clippy::inline_always)] // once per vertex in the hot loops
+#[inline(always)]
+fn stencil_sum(g: &[[i64; 3]; 4], stencil: u8) -> [i64; 3] {
+    let w = WEIGHTS[usize::from(stencil)];
+    let mut s = [0i64; 3];
+    for a in 0..3 {
+        s[a] = w[0] * g[0][a] + w[1] * g[1][a] + w[2] * g[2][a] + w[3] * g[3][a];
+    }
+    s
+}
+
+/// What every vertex of one parent face shares (spec §6.8): the line direction `u` and the
+/// reciprocal `R` of the projection's denominator.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FaceLine {
+    u: [i64; 3],
+    recip: i64,
+}
+
+impl FaceLine {
+    fn new(n: [i64; 3], shift: u32) -> Self {
+        let u = direction(n, shift);
+        // den = (4 u.u) >> F >= 2^(F + 2): |u_max| >= 2^F.
+        let uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        let den = (4 * uu) >> DIRECTION_FRACTION_BITS;
+        Self { u, recip: (1i64 << 62) / den }
+    }
+}
+
+/// The pass A prediction of spec §6.8 for a vertex with a context: the line's origin, the predicted
+/// parameter and the predicted point. Predictor 0: the line through the vertex's lattice point
+/// `L`, parameter of the projection of the bilinear point onto it; predictor 1: the line through
+/// the bilinear point, parameter 0.
+#[allow(clippy::inline_always)] // once per vertex in the hot loops
+#[inline(always)]
+fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i64; 3], i64, [i64; 3]) {
+    if t.predictor != 0 {
+        let b = [(s[0] + 2) >> 2, (s[1] + 2) >> 2, (s[2] + 2) >> 2];
+        return (b, 0, b);
+    }
+    let l = lattice_point(corner, t.level, t.bits);
+    let u = fl.u;
+    let dot = (s[0] - 4 * l[0]) * u[0] + (s[1] - 4 * l[1]) * u[1] + (s[2] - 4 * l[2]) * u[2];
+    let jp = ((i128::from(dot) * i128::from(fl.recip) + (1 << 61)) >> 62) as i64;
+    let jp = jp.clamp(-crate::level::LINE_PARAM_LIMIT, crate::level::LINE_PARAM_LIMIT);
+    let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
+    let p = [
+        l[0] + ((jp * u[0] + half) >> DIRECTION_FRACTION_BITS),
+        l[1] + ((jp * u[1] + half) >> DIRECTION_FRACTION_BITS),
+        l[2] + ((jp * u[2] + half) >> DIRECTION_FRACTION_BITS),
+    ];
+    (l, jp, clamp(p))
+}
+
+/// The line of every parent face (spec §6.8): its canonical quad's normal, scaled.
+fn parent_directions(parent_quads: &[([u32; 4], u8)], pq: &[[i64; 3]], shift: u32, dirs: &mut Vec<FaceLine>) {
+    dirs.clear();
+    dirs.extend(parent_quads.iter().map(|&(quad, _)| {
+        let g = quad.map(|i| pq[i as usize]);
+        let e1 = [g[2][0] - g[0][0], g[2][1] - g[0][1], g[2][2] - g[0][2]];
+        let e2 = [g[3][0] - g[1][0], g[3][1] - g[1][1], g[3][2] - g[1][2]];
+        let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        FaceLine::new(n, shift)
+    }));
+}
+
+/// The base and line normal of a vertex without a context (spec §6.8): its lattice point moved by
+/// the mean offset of the counted neighbours at its first corner, and its first face's axis.
+fn no_context_base(t: &FastTopo<'_>, q: &[[i64; 3]], v: usize) -> ([i64; 3], [i64; 3]) {
+    let ctx = t.contexts;
+    let l = lattice_point(t.vertex_corners[v], t.level, t.bits);
+    let c = ctx.first[v];
+    let (mut base, mut n) = (l, [0i64; 3]);
+    if c != NONE {
+        let c = c as usize;
+        let (f, i) = (c / 4, c % 4);
+        let prev = t.indices[4 * f + (i + 3) % 4] as usize;
+        let next = t.indices[4 * f + (i + 1) % 4] as usize;
+        let mut sum = [0i64; 3];
+        let mut m = 0;
+        for u in [prev, next] {
+            if ctx.face[u] != NONE || u < v {
+                let lu = lattice_point(t.vertex_corners[u], t.level, t.bits);
+                for a in 0..3 {
+                    sum[a] += q[u][a] - lu[a];
+                }
+                m += 1;
+            }
+        }
+        if m == 1 {
+            base = [l[0] + sum[0], l[1] + sum[1], l[2] + sum[2]];
+        } else if m == 2 {
+            base = [l[0] + ((sum[0] + 1) >> 1), l[1] + ((sum[1] + 1) >> 1), l[2] + ((sum[2] + 1) >> 1)];
+        }
+        let side = t.slots[f].1;
+        n[usize::from(side / 2)] = if side % 2 == 0 { 1 } else { -1 };
+    }
+    (clamp(base), n)
+}
+
+/// The decoder's form of [`fast_pass`] (the same predictions, spec §6.8), without a callback: the
+/// geometry stream's values already assembled (`flags`: the line flags, empty without `LINES`;
+/// `params`, `res`: zigzagged line parameters and x, y, z residuals in coding order, or by vertex
+/// without `LINES`). `Err(v)`: vertex `v` decodes outside the grid range or has a line parameter
+/// beyond the limit.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+pub fn decode_pass(
+    t: &FastTopo<'_>,
+    pq: &[[i64; 3]],
+    q: &mut [[i64; 3]],
+    dirs: &mut Vec<FaceLine>,
+    flags: &[u8],
+    params: &[u32],
+    res: [&[u32]; 3],
+) -> Result<(), usize> {
+    let nv = q.len();
+    let ctx = t.contexts;
+    let lines = t.lines;
+    parent_directions(t.parent_quads, pq, t.line_shift, dirs);
+    let unz = |x: u32| i64::from(x >> 1) ^ -i64::from(x & 1);
+    let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
+    let limit = crate::level::LINE_PARAM_LIMIT;
+    // Pass A, written out (no closure: its captures would live in memory).
+    let mut missing = false;
+    let (mut il, mut io) = (0usize, 0usize);
+    let mut bad = false;
+    for v in 0..nv {
+        let pf = ctx.face[v];
+        if pf == NONE {
+            missing = true;
+            continue;
+        }
+        let quad = t.parent_quads[pf as usize].0;
+        let fl = &dirs[pf as usize];
+        let g = [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]];
+        let s = stencil_sum(&g, ctx.stencil[v]);
+        let (b, jp, point) = pass_a(s, fl, t.vertex_corners[v], t);
+        let p = if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
+            let u = fl.u;
+            let j = jp + unz(params[il]);
+            il += 1;
+            bad |= j.abs() > limit;
+            [
+                b[0] + ((j * u[0] + half) >> DIRECTION_FRACTION_BITS),
+                b[1] + ((j * u[1] + half) >> DIRECTION_FRACTION_BITS),
+                b[2] + ((j * u[2] + half) >> DIRECTION_FRACTION_BITS),
+            ]
+        } else {
+            let i = if lines { io } else { v };
+            io += 1;
+            [point[0] + unz(res[0][i]), point[1] + unz(res[1][i]), point[2] + unz(res[2][i])]
+        };
+        bad |= p[0].abs() > GRID_LIMIT || p[1].abs() > GRID_LIMIT || p[2].abs() > GRID_LIMIT;
+        if bad {
+            return Err(v);
+        }
+        q[v] = p;
+    }
+    if missing {
+        for v in 0..nv {
+            if ctx.face[v] != NONE {
+                continue;
+            }
+            let (base, n) = no_context_base(t, q, v);
+            let p = if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
+                let u = direction(n, t.line_shift);
+                let j = unz(params[il]);
+                il += 1;
+                if j.abs() > limit {
+                    return Err(v);
+                }
+                FixedLine { base, u }.point(j)
+            } else {
+                let i = if lines { io } else { v };
+                io += 1;
+                [base[0] + unz(res[0][i]), base[1] + unz(res[1][i]), base[2] + unz(res[2][i])]
+            };
+            if p[0].abs() > GRID_LIMIT || p[1].abs() > GRID_LIMIT || p[2].abs() > GRID_LIMIT {
+                return Err(v);
+            }
+            q[v] = p;
+        }
+    }
+    Ok(())
+}
+
+/// Runs the geometry predictor of spec §6.8 over a mode 3 level in coding order (vertices with a
+/// context in index order, then the others in index order), calling `step(v, prediction)` for
+/// each; `step` returns the vertex's grid coordinates (within [`GRID_LIMIT`]). `pq`: the parent's
+/// grid coordinates; `dirs`: scratch.
+#[allow(clippy::needless_range_loop)] // vertices by index: the callback and the neighbours need it
+pub fn fast_pass<E>(
+    t: &FastTopo<'_>,
+    pq: &[[i64; 3]],
+    q: &mut [[i64; 3]],
+    dirs: &mut Vec<FaceLine>,
+    mut step: impl FnMut(usize, &FastPrediction) -> Result<[i64; 3], E>,
+) -> Result<(), E> {
+    let nv = q.len();
+    let ctx = t.contexts;
+    parent_directions(t.parent_quads, pq, t.line_shift, dirs);
+    let mut missing = false;
+    for v in 0..nv {
+        let pf = ctx.face[v];
+        if pf == NONE {
+            missing = true;
+            continue;
+        }
+        let quad = t.parent_quads[pf as usize].0;
+        let fl = &dirs[pf as usize];
+        let s = stencil_sum(&quad.map(|i| pq[i as usize]), ctx.stencil[v]);
+        let (base, param, point) = pass_a(s, fl, t.vertex_corners[v], t);
+        let line = if t.lines { Some(FixedLine { base, u: fl.u }) } else { None };
+        q[v] = step(v, &FastPrediction { point, line, param })?;
+    }
+    if !missing {
+        return Ok(());
+    }
+    for v in 0..nv {
+        if ctx.face[v] != NONE {
+            continue;
+        }
+        let (base, n) = no_context_base(t, q, v);
+        let line = if t.lines { Some(FixedLine { base, u: direction(n, t.line_shift) }) } else { None };
+        q[v] = step(v, &FastPrediction { point: base, line, param: 0 })?;
+    }
+    Ok(())
+}
+
+/// The decoder's buffers for [`resolve`], reused from level to level.
+#[derive(Default)]
+pub struct ResolveScratch {
+    /// Open-addressing table: `key + 1` (0: empty).
+    keys: Vec<u64>,
+    /// Per table entry: the key's vertex, or `SPLIT | split index`.
+    values: Vec<u32>,
+    /// Vertices of each split key, in numbering order.
+    split_vertices: Vec<Vec<u32>>,
+}
+
+impl ResolveScratch {
+    /// Bytes held.
+    pub fn capacity_bytes(&self) -> usize {
+        self.keys.capacity() * 8 + self.values.capacity() * 4
+    }
+}
+
+const SPLIT: u32 = 1 << 31;
+
+#[inline]
+fn slot_of(key: u64, mask: usize) -> usize {
+    (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32) as usize & mask
+}
+
+/// Finds `key`'s table entry, or the empty entry where it would go.
+#[inline]
+fn probe(keys: &[u64], key: u64, mask: usize) -> usize {
+    let mut i = slot_of(key, mask);
+    loop {
+        let k = keys[i];
+        if k == key + 1 || k == 0 {
+            return i;
+        }
+        i = (i + 1) & mask;
+    }
+}
+
+/// The streams [`resolve`] reads.
+pub struct ResolveStreams<'s, 'a> {
+    /// `splits`.
+    pub splits: &'s mut Reader<'a>,
+    /// `exceptions`.
+    pub exceptions: &'s mut Reader<'a>,
+    /// `choices`.
+    pub choices: &'s mut Reader<'a>,
+    /// `extra_names`.
+    pub extras: &'s mut Reader<'a>,
+}
+
+/// What [`resolve`] reads of the level's faces: per face its parent and quadrant, per parent face
+/// its canonical quad and orientation.
+pub type LevelFaces<'a> = (&'a [u32], &'a [u8], &'a [([u32; 4], u8)]);
+
+#[allow(clippy::too_many_lines, clippy::too_many_arguments)] // spec §5.9 in order
+/// Corner resolution of mode 3 (spec §5.9): `pred[c]` is corner `c`'s predicted lattice key
+/// (depth `k`, valid); fills `indices` (corner to vertex, first-use numbering), clears `pos[c]` at
+/// exception corners, and returns every vertex's lattice corner.
+pub fn resolve(
+    k: u32,
+    nv: usize,
+    pred: &[u64],
+    pos: &mut [u8],
+    indices: &mut [u32],
+    st: ResolveStreams<'_, '_>,
+    scratch: &mut ResolveScratch,
+    (parents, quadrants, parent_quads): LevelFaces<'_>,
+    ctx: &mut Contexts,
+) -> Result<Vec<[u32; 3]>, Error> {
+    let nc = pred.len();
+    // The contexts of [`contexts`], found on the way (the decoder needs no second pass).
+    ctx.first.clear();
+    ctx.first.resize(nv, NONE);
+    ctx.face.clear();
+    ctx.face.resize(nv, NONE);
+    ctx.stencil.clear();
+    ctx.stencil.resize(nv, 0);
+    let (mut fpf, mut fu, mut fw) = (NONE, 0u8, 0u8);
+    let keys_at = CornerKeys::new(k);
+    let valid = |key: u64| lattice::corner_from_key(key, k).is_some();
+    // Split keys: a gap list (strictly increasing), each valid.
+    let r = st.splits;
+    let ns = r.varint_max(nc as u64, "split key count")? as usize;
+    if ns > r.remaining() {
+        return Err(r.invalid(format!("{ns} split keys do not fit in the stream")));
+    }
+    let cap = (2 * (nv + ns) + 2).next_power_of_two();
+    let mask = cap - 1;
+    let ResolveScratch { keys, values, split_vertices } = scratch;
+    keys.clear();
+    keys.resize(cap, 0);
+    values.clear();
+    values.resize(cap, 0);
+    split_vertices.clear();
+    let mut key = 0u64;
+    for i in 0..ns {
+        let gap = r.varint()?;
+        key = if i == 0 { Some(gap) } else { key.checked_add(1).and_then(|x| x.checked_add(gap)) }
+            .filter(|&x| valid(x))
+            .ok_or_else(|| r.invalid(format!("split key {i} is not a lattice corner of level {k}")))?;
+        let e = probe(keys, key, mask);
+        keys[e] = key + 1;
+        values[e] = SPLIT | i as u32;
+        split_vertices.push(Vec::new());
+    }
+    let mut corners: Vec<[u32; 3]> = Vec::with_capacity(nv);
+    // Registers a new vertex under `key` (spec §5.9: every numbered vertex is found by its key).
+    let e = st.exceptions;
+    let nexc = e.varint_max(nc as u64, "exception count")? as usize;
+    let mut exc_left = nexc;
+    let mut next_exc = if nexc > 0 { e.varint_max(nc as u64, "exception position")? as usize } else { usize::MAX };
+    let ch = st.choices;
+    let too_many = |r: &Reader<'_>| r.invalid(format!("corners number more than vertex_count ({nv}) vertices"));
+    for c in 0..nc {
+        if c % 4 == 0 {
+            // A new face: its parent and the in-plane offsets of its quadrant's corner.
+            let f = c / 4;
+            fpf = parents[f];
+            if fpf != NO_PARENT {
+                let t = ROTATED[usize::from(parent_quads[fpf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
+                (fu, fw) = OFFSETS[usize::from(t)];
+            }
+        }
+        if c == next_exc {
+            let next = corners.len();
+            let v = e.varint_max(next as u64, "exception vertex")? as usize;
+            if v == next {
+                if next == nv {
+                    return Err(too_many(e));
+                }
+                let d = crate::bytes::unzigzag(e.varint()?);
+                let key = pred[c]
+                    .checked_add_signed(d)
+                    .filter(|&x| valid(x))
+                    .ok_or_else(|| e.invalid(format!("exception key at corner {c} is not a lattice corner")))?;
+                let slot = probe(keys, key, mask);
+                if keys[slot] == 0 {
+                    keys[slot] = key + 1;
+                    values[slot] = v as u32;
+                } else if values[slot] & SPLIT != 0 {
+                    split_vertices[(values[slot] & !SPLIT) as usize].push(v as u32);
+                } else {
+                    return Err(e.invalid(format!("two vertices at key {key}, which is not a split key")));
+                }
+                corners.push(keys_at.corner(key));
+                ctx.first[v] = c as u32;
+            }
+            indices[c] = v as u32;
+            pos[c] = NO_POS;
+            exc_left -= 1;
+            next_exc = if exc_left > 0 {
+                let gap = e.varint_max(nc as u64, "exception position gap")? as usize;
+                c + 1 + gap
+            } else {
+                usize::MAX
+            };
+            continue;
+        }
+        let key = pred[c];
+        let slot = probe(keys, key, mask);
+        let v = if keys[slot] == 0 {
+            let v = corners.len();
+            if v == nv {
+                return Err(too_many(ch));
+            }
+            keys[slot] = key + 1;
+            values[slot] = v as u32;
+            corners.push(keys_at.corner(key));
+            ctx.first[v] = c as u32;
+            v as u32
+        } else if values[slot] & SPLIT == 0 {
+            values[slot]
+        } else {
+            let list = &mut split_vertices[(values[slot] & !SPLIT) as usize];
+            let o = ch.varint_max(list.len() as u64, "choice")? as usize;
+            if o == list.len() {
+                let v = corners.len();
+                if v == nv {
+                    return Err(too_many(ch));
+                }
+                list.push(v as u32);
+                corners.push(keys_at.corner(key));
+                ctx.first[v] = c as u32;
+                v as u32
+            } else {
+                list[o]
+            }
+        };
+        indices[c] = v;
+        let sp = pos[c];
+        if sp != NO_POS && ctx.face[v as usize] == NONE {
+            let (eu, ew) = OFFSETS[usize::from(sp & 3)];
+            ctx.face[v as usize] = fpf;
+            ctx.stencil[v as usize] = 3 * (fu + eu) + (fw + ew);
+        }
+    }
+    if next_exc != usize::MAX {
+        return Err(e.invalid(format!("exception position {next_exc} is beyond the corners")));
+    }
+    // Vertices no corner uses: their keys as zigzag deltas.
+    let r = st.extras;
+    let left = nv - corners.len();
+    let n = r.varint_max(left as u64, "extra vertex count")? as usize;
+    if n != left {
+        return Err(r.invalid(format!("{} vertices numbered and {n} extra, vertex_count is {nv}", corners.len())));
+    }
+    let mut key = 0u64;
+    for _ in 0..n {
+        let d = crate::bytes::unzigzag(r.varint()?);
+        key = key
+            .checked_add_signed(d)
+            .filter(|&x| valid(x))
+            .ok_or_else(|| r.invalid("extra vertex key is not a lattice corner"))?;
+        corners.push(keys_at.corner(key));
+    }
+    Ok(corners)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{DIRECTION_FRACTION_BITS, FixedLine, direction};
+
+    #[test]
+    fn directions_are_scaled_normals() {
+        for (n, shift) in [([3i64, -7, 2], 0u32), ([0, 0, 0], 3), ([1 << 58, 1 << 57, -(1 << 50)], 16), ([-5, 1, 0], 1)]
+        {
+            let u = direction(n, shift);
+            let top = u.iter().map(|x| x.unsigned_abs()).max().unwrap();
+            assert!(top >= 1 << (shift + DIRECTION_FRACTION_BITS) && top < 1 << (shift + DIRECTION_FRACTION_BITS + 1));
+            // Same direction: the cross product with n vanishes up to the scaling's rounding.
+            if n != [0, 0, 0] {
+                let sign = |x: i64| x.signum();
+                assert_eq!(u.map(sign), n.map(sign), "{n:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn every_line_point_has_one_parameter() {
+        for (n, shift) in [([3i64, -7, 2], 0u32), ([0, 0, 0], 3), ([1 << 40, 1 << 40, -(1 << 40)], 0), ([-5, 1, 0], 1)]
+        {
+            let line = FixedLine { base: [10, -20, 30], u: direction(n, shift) };
+            for j in (-300i64..300).chain([1 << 30, -(1 << 30)]) {
+                let q = line.point(j);
+                assert_eq!(line.param(q), Some(j), "{n:?} j {j}");
+                let off = [q[0] + 1, q[1], q[2] + 1];
+                if let Some(i) = line.param(off) {
+                    assert_eq!(line.point(i), off);
+                }
+            }
+        }
+    }
+}
