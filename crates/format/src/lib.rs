@@ -54,7 +54,7 @@
 //!   key table, no sorted name set) and predict geometry in integers from the parent alone (a
 //!   fixed-point line along the parent quad's exact normal, the parameter of the parent surface's
 //!   point predicted); about 1.7 times fewer decoder instructions per vertex than version 2 at
-//!   the same size (`tools/bench/RESULTS.md`). Version 2 stays the default for now.
+//!   the same size (`tools/bench/RESULTS.md`); the default since 2026-12-01 (version 2 on request).
 //! * **Byte planes + zstd**: residuals and symbols go to separate streams, least significant
 //!   byte planes first, one zstd frame per level. Measured against the order-0 entropy of the
 //!   residuals, zstd is within about 3 % on the bunny and dragon hierarchies, so an adaptive
@@ -90,7 +90,7 @@ use level::NO_PARENT;
 
 /// The format version this crate writes by default (spec §3.1); [`EncodeOptions::version`] selects
 /// another.
-pub const FORMAT_VERSION: u16 = 2;
+pub const FORMAT_VERSION: u16 = 3;
 /// The newest format version this crate reads and writes; it reads every version from 1 to this.
 pub const LATEST_FORMAT_VERSION: u16 = 3;
 /// The finest grid a file may use: `2^28` steps across the cube.
@@ -118,9 +118,9 @@ pub struct EncodeOptions {
     pub zstd_level: i32,
     /// Units, source and further key-value pairs to record.
     pub metadata: Metadata,
-    /// Format version to write, 2 or 3 (default [`FORMAT_VERSION`]). Version 3 codes lattice
+    /// Format version to write, 2 or 3 (default [`FORMAT_VERSION`], 3). Version 3 codes lattice
     /// refinements in mode 3 (spec §5.9, §6.8: vertices numbered by first use, integer geometry
-    /// from the parent), which decodes several times faster.
+    /// from the parent), which decodes faster; version 2 codes them in mode 2 (§5.3, §6.2-§6.6).
     pub version: u16,
 }
 

@@ -49,21 +49,27 @@ fn dump(h: &Hierarchy) -> String {
     serde_json::to_string_pretty(&json!({ "cube": cube, "levels": levels })).expect("json") + "\n"
 }
 
+/// Version 2 options (the files written before version 3 stay as they were).
 fn q(bits: u32) -> EncodeOptions {
-    EncodeOptions::with_quantization(Quantization::Bits(bits))
+    v2(EncodeOptions::with_quantization(Quantization::Bits(bits)))
+}
+
+fn v2(mut opts: EncodeOptions) -> EncodeOptions {
+    opts.version = 2;
+    opts
 }
 
 fn valid_set() -> Vec<(&'static str, Vec<u8>)> {
     let mut quad = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
     quad.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
-    let mut meta = EncodeOptions::with_quantization(Quantization::Step(0.25));
+    let mut meta = v2(EncodeOptions::with_quantization(Quantization::Step(0.25)));
     meta.metadata = Metadata {
         units: "m".into(),
         source: "conformance".into(),
         generator: "octowrap-format tests".into(),
         entries: vec![("crs".into(), "EPSG:25832".into())],
     };
-    let exact = EncodeOptions::with_quantization(Quantization::Exact);
+    let exact = v2(EncodeOptions::with_quantization(Quantization::Exact));
     vec![
         ("one_quad_exact", encode(&Hierarchy::single(quad.clone()), &exact).unwrap()),
         ("one_quad_metadata_step", encode(&Hierarchy::single(quad), &meta).unwrap()),

@@ -12,12 +12,15 @@ fn strict() -> DecodeOptions {
 }
 
 fn samples() -> Vec<Vec<u8>> {
-    let q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    // Version 2 (mode 2), then version 3 (mode 3) below.
+    let mut q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    q12.version = 2;
+    let mut exact2 = EncodeOptions::with_quantization(Quantization::Exact);
+    exact2.version = 2;
     vec![
         encode(&cube_hierarchy(3, Edits::default(), 1), &q12).unwrap(),
         encode(&without_lattice(cube_hierarchy(3, Edits::default(), 2)), &q12).unwrap(),
-        encode(&Hierarchy::single(polygon_mesh(20, 12, 3)), &EncodeOptions::with_quantization(Quantization::Exact))
-            .unwrap(),
+        encode(&Hierarchy::single(polygon_mesh(20, 12, 3)), &exact2).unwrap(),
         // Line geometry (spec §6.6), lattice and generic.
         encode(&placed(cube_hierarchy(3, Edits::default(), 4), &q12), &q12).unwrap(),
         encode(&placed(without_lattice(cube_hierarchy(3, Edits::default(), 5)), &q12), &q12).unwrap(),

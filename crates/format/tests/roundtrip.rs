@@ -45,9 +45,15 @@ fn check(h: &Hierarchy, opts: &EncodeOptions) -> Vec<u8> {
 fn lattice_hierarchy_round_trips() {
     for seed in 0..4 {
         let h = cube_hierarchy(5, Edits::default(), seed);
-        let (bytes, stats) = encode_with_stats(&h, &EncodeOptions::with_quantization(Quantization::Bits(12))).unwrap();
-        assert!(stats[1..].iter().all(|s| s.mode == 2), "lattice mode used: {stats:?}");
-        let _ = bytes;
+        // Version 3 (the default) codes lattice levels in mode 3, version 2 in mode 2.
+        for (version, mode) in [(3u16, 3u8), (2, 2)] {
+            let mut opts = EncodeOptions::with_quantization(Quantization::Bits(12));
+            opts.version = version;
+            let (bytes, stats) = encode_with_stats(&h, &opts).unwrap();
+            assert!(stats[1..].iter().all(|s| s.mode == mode), "lattice mode used: {stats:?}");
+            assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), version);
+            check(&h, &opts);
+        }
         check(&h, &EncodeOptions::with_quantization(Quantization::Bits(12)));
         check(&h, &EncodeOptions::with_quantization(Quantization::Bits(20)));
         check(&h, &EncodeOptions::with_quantization(Quantization::Exact));

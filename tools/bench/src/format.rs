@@ -23,7 +23,7 @@ fn row(name: &str, h: &Hierarchy) {
 /// warm-up decode (the decoder keeps its working buffers per thread, as a program decoding many
 /// files would).
 fn row_runs(name: &str, h: &Hierarchy, encode_runs: usize) {
-    row_version(name, h, encode_runs, octowrap_format::FORMAT_VERSION);
+    row_version(name, h, encode_runs, 2);
 }
 
 /// Format version 3 (spec §5.9, §6.8): q12 options writing version 3.
@@ -64,7 +64,7 @@ fn row_version(name: &str, h: &Hierarchy, encode_runs: usize, version: u16) {
     );
     // The decoded finest level, for the Draco comparison at the end of the section.
     let tmp = std::env::temp_dir().join("octowrap-bench-format");
-    if std::fs::create_dir_all(&tmp).is_ok() && name.contains("recon") {
+    if std::fs::create_dir_all(&tmp).is_ok() && name.contains("recon") && !name.contains("v3") {
         let model = name.split(' ').next().unwrap_or("mesh");
         let path =
             tmp.join(if name.contains("placed") { format!("{model}-placed.ply") } else { format!("{model}.ply") });
@@ -126,7 +126,8 @@ pub fn report() {
     row("synthetic cube, lattice", &cube_hierarchy(8, Edits::default(), 1));
     row("synthetic cube, no lattice", &without_lattice(cube_hierarchy(8, Edits::default(), 1)));
     row("synthetic cube, pure subdivision", &cube_hierarchy(8, Edits::none(), 1));
-    let q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    let mut q12 = EncodeOptions::with_quantization(Quantization::Bits(12));
+    q12.version = 2;
     let mut placed_synthetic = cube_hierarchy(8, Edits::default(), 1);
     let _ = place_on_prediction_lines(&mut placed_synthetic, &q12).expect("places");
     row("synthetic cube, lattice, placed on lines", &placed_synthetic);
@@ -160,7 +161,7 @@ pub fn report() {
                     let mut placed3 = h.clone();
                     let _ = place_on_prediction_lines(&mut placed3, &v3()).expect("places");
                     row_version(&format!("{name} (recon, placed on v3 lines, v3)"), &placed3, 3, 3);
-                    models.push((name, cloud, h, placed, stats, secs));
+                    models.push((name, cloud, h, placed, stats, secs, placed3));
                 }
             }
         }
@@ -168,8 +169,8 @@ pub fn report() {
     }
     println!();
     draco();
-    for (name, cloud, h, placed, stats, secs) in &models {
-        line_accuracy(name, cloud, h, placed, stats, *secs);
+    for (name, cloud, h, placed, stats, secs, placed3) in &models {
+        line_accuracy(name, cloud, h, placed, stats, *secs, placed3);
     }
 }
 
@@ -182,6 +183,7 @@ fn line_accuracy(
     placed: &Hierarchy,
     stats: &octowrap_format::LinePlacement,
     secs: f64,
+    placed3: &Hierarchy,
 ) {
     let diag = Aabb::from_points(cloud).diagonal();
     println!(
@@ -195,11 +197,16 @@ fn line_accuracy(
         stats.rms_move / diag
     );
     println!();
-    println!("| {name} level | pts→mesh RMS, reconstructed | placed on lines | change |");
-    println!("|---|---|---|---|");
-    for (k, (a, b)) in h.levels.iter().zip(&placed.levels).enumerate().skip(1) {
-        let (ra, rb) = (points_to_mesh_rms(cloud, &a.mesh) / diag, points_to_mesh_rms(cloud, &b.mesh) / diag);
-        println!("| {k} | {ra:.5} | {rb:.5} | {:+.1} % |", (rb / ra - 1.0) * 100.0);
+    println!("| {name} level | pts→mesh RMS, reconstructed | placed on lines | change | placed on v3 lines | change |");
+    println!("|---|---|---|---|---|---|");
+    for (k, ((a, b), c)) in h.levels.iter().zip(&placed.levels).zip(&placed3.levels).enumerate().skip(1) {
+        let rms = |m: &Mesh| points_to_mesh_rms(cloud, m) / diag;
+        let (ra, rb, rc) = (rms(&a.mesh), rms(&b.mesh), rms(&c.mesh));
+        println!(
+            "| {k} | {ra:.5} | {rb:.5} | {:+.1} % | {rc:.5} | {:+.1} % |",
+            (rb / ra - 1.0) * 100.0,
+            (rc / ra - 1.0) * 100.0
+        );
     }
     println!();
 }
