@@ -276,29 +276,34 @@ impl FaceLine {
     }
 }
 
-/// The pass A prediction of spec §6.8 for a vertex with a context: the line's origin, the predicted
-/// parameter and the predicted point. Predictor 0: the line through the vertex's lattice point
-/// `L`, parameter of the projection of the bilinear point onto it; predictor 1: the line through
-/// the bilinear point, parameter 0.
+/// The pass A prediction of spec §6.8 for a vertex with a context: the line's origin and the
+/// predicted parameter (the predicted point is [`pass_a_point`]). Predictor 0: the line through
+/// the vertex's lattice point `L`, parameter of the projection of the bilinear point onto it;
+/// predictor 1: the line through the bilinear point, parameter 0.
 #[allow(clippy::inline_always)] // once per vertex in the hot loops
 #[inline(always)]
-fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i64; 3], i64, [i64; 3]) {
+fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i64; 3], i64) {
     if t.predictor != 0 {
-        let b = [(s[0] + 2) >> 2, (s[1] + 2) >> 2, (s[2] + 2) >> 2];
-        return (b, 0, b);
+        return ([(s[0] + 2) >> 2, (s[1] + 2) >> 2, (s[2] + 2) >> 2], 0);
     }
     let l = lattice_point(corner, t.level, t.bits);
     let u = fl.u;
     let dot = (s[0] - 4 * l[0]) * u[0] + (s[1] - 4 * l[1]) * u[1] + (s[2] - 4 * l[2]) * u[2];
     let jp = ((i128::from(dot) * i128::from(fl.recip) + (1 << 61)) >> 62) as i64;
-    let jp = jp.clamp(-crate::level::LINE_PARAM_LIMIT, crate::level::LINE_PARAM_LIMIT);
+    (l, jp.clamp(-crate::level::LINE_PARAM_LIMIT, crate::level::LINE_PARAM_LIMIT))
+}
+
+/// The predicted point of a pass A vertex (spec §6.8): `clamp(line(jpred))` (the origin itself
+/// under predictor 1, where `jpred = 0`).
+#[allow(clippy::inline_always)] // once per vertex in the hot loops
+#[inline(always)]
+fn pass_a_point(origin: [i64; 3], jp: i64, u: [i64; 3]) -> [i64; 3] {
     let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
-    let p = [
-        l[0] + ((jp * u[0] + half) >> DIRECTION_FRACTION_BITS),
-        l[1] + ((jp * u[1] + half) >> DIRECTION_FRACTION_BITS),
-        l[2] + ((jp * u[2] + half) >> DIRECTION_FRACTION_BITS),
-    ];
-    (l, jp, clamp(p))
+    clamp([
+        origin[0] + ((jp * u[0] + half) >> DIRECTION_FRACTION_BITS),
+        origin[1] + ((jp * u[1] + half) >> DIRECTION_FRACTION_BITS),
+        origin[2] + ((jp * u[2] + half) >> DIRECTION_FRACTION_BITS),
+    ])
 }
 
 /// The line of every parent face (spec §6.8): its canonical quad's normal, scaled.
@@ -383,7 +388,7 @@ pub fn decode_pass(
         let fl = &dirs[pf as usize];
         let g = [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]];
         let s = stencil_sum(&g, ctx.stencil[v]);
-        let (b, jp, point) = pass_a(s, fl, t.vertex_corners[v], t);
+        let (b, jp) = pass_a(s, fl, t.vertex_corners[v], t);
         let p = if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
             let u = fl.u;
             let j = jp + unz(params[il]);
@@ -397,6 +402,7 @@ pub fn decode_pass(
         } else {
             let i = if lines { io } else { v };
             io += 1;
+            let point = pass_a_point(b, jp, fl.u);
             [point[0] + unz(res[0][i]), point[1] + unz(res[1][i]), point[2] + unz(res[2][i])]
         };
         bad |= p[0].abs() > GRID_LIMIT || p[1].abs() > GRID_LIMIT || p[2].abs() > GRID_LIMIT;
@@ -458,7 +464,8 @@ pub fn fast_pass<E>(
         let quad = t.parent_quads[pf as usize].0;
         let fl = &dirs[pf as usize];
         let s = stencil_sum(&quad.map(|i| pq[i as usize]), ctx.stencil[v]);
-        let (base, param, point) = pass_a(s, fl, t.vertex_corners[v], t);
+        let (base, param) = pass_a(s, fl, t.vertex_corners[v], t);
+        let point = pass_a_point(base, param, fl.u);
         let line = if t.lines { Some(FixedLine { base, u: fl.u }) } else { None };
         q[v] = step(v, &FastPrediction { point, line, param })?;
     }
