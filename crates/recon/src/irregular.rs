@@ -36,6 +36,10 @@ use crate::sheet::Mask;
 #[derive(Debug)]
 pub(crate) struct Decisions<'a> {
     cells: &'a Cells,
+    /// The coarser levels' voxels (index = level) and their flips, for diagonal edges between
+    /// filled voxels ([`crate::regions`]), which take their parents' decision.
+    coarse: &'a [Cells],
+    coarse_flips: &'a [BTreeSet<(u64, u64)>],
     /// Voxel pairs whose decision was flipped to split a pinched edge ([`crate::extract`]).
     pub flips: BTreeSet<(u64, u64)>,
 }
@@ -43,26 +47,24 @@ pub(crate) struct Decisions<'a> {
 impl<'a> Decisions<'a> {
     /// The points' decisions, no flips.
     pub(crate) fn new(cells: &'a Cells) -> Self {
-        Self { cells, flips: BTreeSet::new() }
+        Self { cells, coarse: &[], coarse_flips: &[], flips: BTreeSet::new() }
+    }
+
+    /// Decisions of a level with filled voxels: `coarse` are the levels above (`0..level`),
+    /// `coarse_flips` their flips (by level; missing levels have none).
+    pub(crate) fn with_parents(
+        cells: &'a Cells,
+        coarse: &'a [Cells],
+        coarse_flips: &'a [BTreeSet<(u64, u64)>],
+    ) -> Self {
+        Self { cells, coarse, coarse_flips, flips: BTreeSet::new() }
     }
 
     /// Whether the surface passes from voxel `v` to its edge-neighbour `w`.
     pub(crate) fn pass(&self, v: u64, w: u64) -> bool {
-        let base = self.joint_pass(v, w);
+        let base = joint_pass(self.cells, self.coarse, self.coarse_flips, v, w);
         if self.flips.is_empty() { base } else { base ^ self.flips.contains(&pair_key(v, w)) }
     }
-
-    fn joint_pass(&self, v: u64, w: u64) -> bool {
-        let (Some(i), Some(j)) = (self.cells.find(v), self.cells.find(w)) else { return true };
-        let (a, b) = (self.cells.moments[i], self.cells.moments[j]);
-        if a.count < 4.0 || b.count < 4.0 {
-            return true;
-        }
-        let mut m = a;
-        m.merge(&b);
-        crate::fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * self.cells.voxel())
-    }
-
     /// The case and the partner slot of face `key` across its edge `k`.
     #[inline]
     pub(crate) fn partner(&self, key: u64, k: usize) -> (EdgeCase, u64) {
@@ -71,6 +73,29 @@ impl<'a> Decisions<'a> {
         let case = edge_case(code, d, t, self.cells.level, |c| self.cells.occupied(c));
         (case, partner(code, d, t, case, |a, b| self.pass(a, b)))
     }
+}
+
+/// The points' decision for the voxel pair `(v, w)` of `cells`: one plane through both voxels'
+/// points, broken when both hold at least 4 points and its RMS residual exceeds 0.2 voxel. Two
+/// filled voxels of different parents take their parents' decision (with the flips of that
+/// level), from `coarse` (the levels above, by level).
+fn joint_pass(cells: &Cells, coarse: &[Cells], coarse_flips: &[BTreeSet<(u64, u64)>], v: u64, w: u64) -> bool {
+    let (Some(i), Some(j)) = (cells.find(v), cells.find(w)) else { return true };
+    if cells.is_filled(i) && cells.is_filled(j) && v >> 3 != w >> 3 {
+        if let Some((parents, above)) = coarse.split_last() {
+            let (pv, pw) = (v >> 3, w >> 3);
+            let base = joint_pass(parents, above, coarse_flips, pv, pw);
+            let flipped = coarse_flips.get(parents.level as usize).is_some_and(|f| f.contains(&pair_key(pv, pw)));
+            return base ^ flipped;
+        }
+    }
+    let (a, b) = (cells.moments[i], cells.moments[j]);
+    if a.count < 4.0 || b.count < 4.0 {
+        return true;
+    }
+    let mut m = a;
+    m.merge(&b);
+    crate::fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * cells.voxel())
 }
 
 /// Whether the mask allows slot `key` (whose voxel must be occupied).

@@ -40,6 +40,7 @@
 //! | vertex mapping | `mapping` | §3.6 |
 //! | relaxation | `relax` | §3.6.1 |
 //! | density limit, subdivision beyond it | `sparse` | §4.2 |
+//! | trusted level per region (optional) | `regions` | §4.2 |
 //! | gaps of sparsely sampled sheets | `octree` (`fill_gaps`) | §4.2 |
 //!
 //! # Readings of the paper
@@ -88,8 +89,27 @@
 //!   groove, which a first version bridged, doubling the dragon's level-7 error), is added as a
 //!   voxel without points ([`ReconOptions::fill_gaps`]). Dense data keeps its holes (a one-voxel
 //!   hole among voxels of more than 8 points stays), and the bunny's open bottom, many voxels
-//!   wide, stays open. Dragon level 7: 52 boundary loops before, 23 after, same error. The
-//!   paper's own remedy, a trusted level chosen per region, remains untried.
+//!   wide, stays open. Dragon level 7: 52 boundary loops before, 23 after, same error.
+//! * **Trusted level per region (§4.2)**, optional ([`ReconOptions::region_density`], off by
+//!   default): the paper's "fix the topology at a coarser level" read per region, as in the
+//!   prototype's fourth round (`../shared/docs/reconstruction.md`). Before level `j + 1`, a voxel
+//!   whose 3x3x3 block holds fewer than `tau` points per occupied child is sparse (grown by its 26
+//!   neighbours, sparse below); its eight children are all present at `j + 1` (*filled*), so the
+//!   wrapped level reproduces its parent's faces split 1:4 there, inside one crack-free lattice
+//!   mesh. Filled voxels allow their parent's subfaces, plus the transition's steps: a slot looking
+//!   into an empty child of a dense voxel, unless it is inwards of a parent face the child lies on
+//!   and behind every oriented sheet around (its parent's, the dense voxel's, the dense voxels'
+//!   around the empty one). The prototype's "every slot within one voxel of a dense voxel"
+//!   wrapped the inner side of a sampled bowl; the sheet-angle test of `sheet` kept the
+//!   wrong-way steps (a filled region is up to a voxel thicker than its points) closed and cracked
+//!   the border. Diagonal edges between filled voxels take the parents' decisions; their vertices
+//!   start on the parent face (bilinear) and are mapped as on subdivided levels. Regions start
+//!   past the global limit: [`ReconOptions::region_levels`] levels are wrapped there where some
+//!   region is dense, a level where every voxel is sparse is plain subdivision. Marking regions
+//!   inside the trusted levels too (the prototype) was measured worse: at `tau = 10` the bunny's
+//!   level 5 went from RMS .00228 to .00290 and its level 7 from .00039 to .00169, the dragon's
+//!   level 7 from .00159 to .00201 with 68 boundary loops instead of 23: the rims it subdivides
+//!   are where the coarser topology lies furthest from the points.
 //!
 //! # Coordinates and determinism
 //! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
@@ -108,6 +128,7 @@ mod lattice;
 mod mapping;
 mod octree;
 mod rankmap;
+mod regions;
 mod regular;
 mod relax;
 mod sheet;
@@ -189,6 +210,17 @@ pub struct ReconOptions {
     /// oriented-sheet mask keeps such gaps open like real holes (the dragon's level 7: 52
     /// boundary loops, 23 with it). Default true.
     pub fill_gaps: bool,
+    /// The per-region trusted level (module `regions`): before level `j + 1` is built, a
+    /// voxel of level `j` whose 3x3x3 block holds fewer than this many points per occupied child
+    /// is sparse (with its 26 neighbours, and everything below it), and its region is subdivided
+    /// inside the wrapped level (the prototype's 10 is a good start). Default 0: off (measured in
+    /// `tools/bench/RESULTS.md`, regions cost the bunny and the dragon accuracy at their trusted
+    /// levels).
+    pub region_density: f64,
+    /// Levels past the global density limit ([`ReconOptions::min_median_points`]) that are still
+    /// wrapped where some region is dense enough ([`ReconOptions::region_density`]); deeper
+    /// levels, or a level where every voxel is sparse, are subdivided. Default 0.
+    pub region_levels: u32,
 }
 
 impl Default for ReconOptions {
@@ -202,6 +234,8 @@ impl Default for ReconOptions {
             sparse: SparseMode::Subdivide,
             quadric_mapping: true,
             fill_gaps: true,
+            region_density: 0.0,
+            region_levels: 0,
             max_faces: 200_000_000,
         }
     }
@@ -344,6 +378,8 @@ pub struct LevelReport {
     pub dropped: usize,
     /// Empty voxels filled in as gaps of a sparsely sampled sheet (see the crate docs).
     pub filled: usize,
+    /// Voxels of sparse regions, present with or without points ([`ReconOptions::region_density`]).
+    pub sparse_voxels: usize,
     /// Stage timings.
     pub timings: StageTimings,
 }
@@ -410,7 +446,7 @@ pub fn reconstruct_with(
     let mut part_times = vec![t.elapsed()];
     // The trusted level is the last before the first level whose median falls below the bound.
     let mut failed: Option<u32> = None;
-    let (finest, mut trusted) = loop {
+    let (mut finest, mut trusted) = loop {
         let j = tree.depth();
         if failed.is_none() && j >= 1 && tree.levels[j as usize].median_count() < opts.min_median_points {
             failed = Some(j);
@@ -429,8 +465,34 @@ pub fn reconstruct_with(
         tree.push_level();
         part_times.push(t.elapsed());
     };
+    // Regions ([`regions`]): sparse regions of wrapped levels are subdivided inside them; past
+    // the global limit, up to `region_levels` more levels are wrapped while some region is dense.
+    let tau = opts.region_density;
+    let regions = opts.sparse == SparseMode::Subdivide && tau.is_finite() && tau > 0.0;
     if opts.sparse == SparseMode::Wrap {
         trusted = finest;
+    }
+    // The last level the global criterion trusts everywhere: regions start below it.
+    let global = trusted;
+    if regions {
+        // `Auto` goes as deep as the regions are wrapped.
+        let auto = opts.max_level == MaxLevel::Auto;
+        let bound = if auto { AUTO_CAP } else { finest };
+        let last = bound.min(trusted.saturating_add(opts.region_levels)).min(MAX_LEVEL);
+        while trusted < last {
+            while tree.depth() < trusted + 1 {
+                let t = Instant::now();
+                tree.push_level();
+                part_times.push(t.elapsed());
+            }
+            if !regions::any_dense(&tree.levels[trusted as usize], &tree.levels[trusted as usize + 1], tau) {
+                break;
+            }
+            trusted += 1;
+        }
+        if auto {
+            finest = trusted;
+        }
     }
     // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, level
     // k - 1 (its points, summed per child). Nothing deeper is kept (or built).
@@ -476,19 +538,42 @@ pub fn reconstruct_with(
         flips: 0,
         dropped: 0,
         filled: 0,
+        sparse_voxels: 0,
         timings: StageTimings { partitioning: part_times[0], ..StageTimings::default() },
     });
     levels.push(prev.take_level(&tree, false));
 
+    // The mask and the flips of the wrapped levels above, for the filled voxels of the next.
+    let mut prev_mask: Option<sheet::Mask> = None;
+    let mut flips_by_level: Vec<std::collections::BTreeSet<(u64, u64)>> = vec![std::collections::BTreeSet::new()];
     for j in 1..=finest {
+        // The sparse regions of level j - 1 (past the global limit), before gaps are filled
+        // (they hold no points).
+        let mut marks = (regions && j > global && j <= trusted)
+            .then(|| regions::mark(&tree.levels[j as usize - 1], &tree.levels[j as usize], tau));
+        if marks.as_ref().is_some_and(|m| m.iter().all(|&s| s)) {
+            // Every voxel is sparse: this level and the deeper ones are plain subdivision.
+            trusted = j - 1;
+            marks = None;
+        }
         // One-voxel gaps of sparsely sampled sheets are filled before the level is wrapped.
         let filled = if opts.fill_gaps && (2..=trusted).contains(&j) { tree.levels[j as usize].fill_gaps() } else { 0 };
         let here = tree.levels.get(j as usize);
+        let (voxels, median_points) =
+            (here.map_or(0, octree::Cells::len), here.map_or(0.0, octree::Cells::median_count));
+        // Sparse regions: the children of sparse voxels are all present.
+        let sparse_voxels = match marks {
+            Some(marks) => {
+                let (above, here) = tree.levels.split_at_mut(j as usize);
+                regions::fill(&mut here[0], &above[j as usize - 1], &marks)
+            }
+            None => 0,
+        };
         let mut rep = LevelReport {
             level: j,
             kind: LevelKind::Wrapped,
-            voxels: here.map_or(0, octree::Cells::len),
-            median_points: here.map_or(0.0, octree::Cells::median_count),
+            voxels,
+            median_points,
             faces: 0,
             vertices: 0,
             created: 0,
@@ -496,6 +581,7 @@ pub fn reconstruct_with(
             flips: 0,
             dropped: 0,
             filled,
+            sparse_voxels,
             timings: StageTimings {
                 partitioning: part_times.get(j as usize).copied().unwrap_or_default(),
                 ..StageTimings::default()
@@ -509,14 +595,14 @@ pub fn reconstruct_with(
             stage(Stage::Regular);
             let t = Instant::now();
             let prev_index = RankMap::from_sorted(&prev.slots);
-            let mask = sheet::build(&tree, cells, coarse, &prev_index);
+            let mask = sheet::build(&tree, cells, coarse, &prev_index, prev_mask.as_ref());
             rep.oriented_voxels = mask.signed_count();
             let initial = regular::refine(&prev.slots, &prev_index, cells, &mask);
             rep.timings.regular = t.elapsed();
             // §3.5: closure, extraction, splits.
             stage(Stage::Irregular);
             let t = Instant::now();
-            let mut dec = Decisions::new(cells);
+            let mut dec = Decisions::with_parents(cells, &tree.levels[..j as usize], &flips_by_level);
             let (mut slots, mut origins, created) = irregular::close(initial, cells, &mask, &dec);
             rep.created = created;
             let mut tried = std::collections::BTreeSet::new();
@@ -547,9 +633,26 @@ pub fn reconstruct_with(
                 rep.dropped += before - slots.len();
             };
             rep.timings.irregular = t.elapsed();
+            let flips = std::mem::take(&mut dec.flips);
+            drop(dec);
             let h = voxel_size(j);
-            let positions =
+            let mut positions: Vec<DVec3> =
                 ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2])) * h).collect();
+            if sparse_voxels > 0 {
+                regions::start_on_parents(
+                    &regions::Faces { slots: &slots, origins: &origins, quads: &ex.quads, corners: &ex.corners },
+                    cells,
+                    &regions::Parents { quads: &prev.quads, corners: &prev.corners, positions: &prev.positions },
+                    &mut positions,
+                );
+            }
+            // Kept for the next level's filled voxels, if it is wrapped.
+            if regions && j < trusted {
+                flips_by_level.push(flips);
+                prev_mask = Some(mask);
+            } else {
+                prev_mask = None;
+            }
             LevelState { slots, quads: ex.quads, corners: ex.corners, positions, origins }
         } else {
             // Check the finest level's face count before building any subdivided level.
@@ -583,7 +686,16 @@ pub fn reconstruct_with(
                 .iter()
                 .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
                 .collect();
-            mapping::map_wrapped(&tree, cells, &next.quads, &face_cells, &mut next.positions, opts.quadric_mapping)
+            let coarse = &tree.levels[j as usize - 1];
+            mapping::map_wrapped(
+                &tree,
+                cells,
+                coarse,
+                &next.quads,
+                &face_cells,
+                &mut next.positions,
+                opts.quadric_mapping,
+            )
         } else {
             mapping::map_free(&tree, j, &mut next.positions)
         };

@@ -89,10 +89,14 @@ fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
 }
 
 /// Maps the vertices of a wrapped level. `face_cells[f]` is the voxel (index into `cells`) of
-/// face `f`; `start` the vertices' initial positions.
+/// face `f`; `start` the vertices' initial positions. A vertex whose faces all lie on filled
+/// voxels ([`crate::regions`]) is mapped as on a subdivided level ([`map_filled`]), from the
+/// moments of `cells` and of `coarse` (the level above).
+#[allow(clippy::too_many_arguments)] // the level, its parents, its faces and the options
 pub(crate) fn map_wrapped(
     tree: &Octree,
     cells: &Cells,
+    coarse: &Cells,
     quads: &[[u32; 4]],
     face_cells: &[u32],
     positions: &mut [DVec3],
@@ -115,6 +119,9 @@ pub(crate) fn map_wrapped(
     let level = cells.level;
     let one = |near: &mut Vec<(DVec3, f64)>, v: usize, x: DVec3| -> (DVec3, Option<TangentPlane>) {
         let w = || pairs[first[v] as usize..first[v + 1] as usize].iter().map(|&(_, c)| c as usize);
+        if !cells.filled.is_empty() && w().all(|c| cells.is_filled(c)) {
+            return map_filled(cells, coarse, x);
+        }
         if quadric {
             // The points of W within one edge, for the weighted quadric.
             near.clear();
@@ -192,6 +199,53 @@ pub(crate) fn map_wrapped(
             plane
         })
         .collect()
+}
+
+/// Maps a vertex at `x` of a filled region of level `cells.level` (edge `l`) as on a subdivided
+/// level ([`map_free`]): onto the plane of the points of the 2x2x2 voxels of `cells` around the
+/// lattice corner nearest to `x`, with fewer than 3 points of the 2x2x2 voxels of `coarse` (the
+/// level above) around theirs; from the voxels' moments.
+fn map_filled(cells: &Cells, coarse: &Cells, x: DVec3) -> (DVec3, Option<TangentPlane>) {
+    let mut m = Moments::default();
+    for level in [cells, coarse] {
+        let h = level.voxel();
+        let n = 1i64 << level.level;
+        let c = (x / h).round();
+        let c = [c.x as i64, c.y as i64, c.z as i64];
+        for o in 0..8usize {
+            let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
+            if v.iter().any(|&a| a < 0 || a >= n) {
+                continue;
+            }
+            if let Some(i) = level.find(morton::encode(v[0] as u32, v[1] as u32, v[2] as u32)) {
+                if let Some(src) = level.moments.get(i) {
+                    add_relative(src, x, &mut m);
+                }
+            }
+        }
+        if m.count >= 3.0 {
+            break;
+        }
+        m = Moments::default();
+    }
+    fit(&m, x)
+}
+
+/// Adds `src` (moments of points in local coordinates) to `m`, relative to `x`.
+fn add_relative(src: &Moments, x: DVec3, m: &mut Moments) {
+    let (n, s, o) = (src.count, src.sum, src.outer);
+    if n <= 0.0 {
+        return;
+    }
+    // sum (p - x)(p - x)^T = sum p p^T - s x^T - x s^T + n x x^T.
+    m.count += n;
+    m.sum += s - x * n;
+    m.outer[0] += o[0] - 2.0 * s.x * x.x + n * x.x * x.x;
+    m.outer[1] += o[1] - s.x * x.y - x.x * s.y + n * x.x * x.y;
+    m.outer[2] += o[2] - s.x * x.z - x.x * s.z + n * x.x * x.z;
+    m.outer[3] += o[3] - 2.0 * s.y * x.y + n * x.y * x.y;
+    m.outer[4] += o[4] - s.y * x.z - x.y * s.z + n * x.y * x.z;
+    m.outer[5] += o[5] - 2.0 * s.z * x.z + n * x.z * x.z;
 }
 
 /// Fewest points for the quadric; below, the plane of the paper.

@@ -59,6 +59,10 @@ pub(crate) struct Cells {
     pub moments: Vec<Moments>,
     /// Morton code to voxel index.
     pub index: RankMap,
+    /// Per voxel, whether it is *filled*: a child of a voxel whose region was too sparse for
+    /// this level ([`crate::regions`]), present whether it holds points or not. Empty when no
+    /// voxel is.
+    pub filled: Vec<bool>,
 }
 
 /// Most points per occupied neighbour, on average, around a gap that [`Cells::fill_gaps`] fills.
@@ -84,6 +88,12 @@ impl Cells {
     #[inline]
     pub(crate) fn occupied(&self, key: u64) -> bool {
         self.index.contains(key)
+    }
+
+    /// Whether voxel `i` is filled ([`Cells::filled`]).
+    #[inline]
+    pub(crate) fn is_filled(&self, i: usize) -> bool {
+        self.filled.get(i).copied().unwrap_or(false)
     }
 
     /// The point range of voxel `i`.
@@ -165,20 +175,31 @@ impl Cells {
                 })
             })
             .collect();
-        if fill.is_empty() {
-            return 0;
+        self.insert_empty(&fill);
+        fill.len()
+    }
+
+    /// Inserts voxels without points (`extra`: sorted, none occupied yet), keeping every
+    /// per-voxel array in step (moments zero, not filled).
+    pub(crate) fn insert_empty(&mut self, extra: &[u64]) {
+        if extra.is_empty() {
+            return;
         }
         // Merge the empty voxels in (both lists are sorted).
-        let total = self.keys.len() + fill.len();
+        let total = self.keys.len() + extra.len();
         let (mut keys, mut starts) = (Vec::with_capacity(total), Vec::with_capacity(total + 1));
         let mut moments = Vec::with_capacity(if self.moments.is_empty() { 0 } else { total });
+        let mut filled = Vec::with_capacity(if self.filled.is_empty() { 0 } else { total });
         let (mut i, mut k) = (0, 0);
-        while i < self.keys.len() || k < fill.len() {
-            if k < fill.len() && (i == self.keys.len() || fill[k] < self.keys[i]) {
-                keys.push(fill[k]);
+        while i < self.keys.len() || k < extra.len() {
+            if k < extra.len() && (i == self.keys.len() || extra[k] < self.keys[i]) {
+                keys.push(extra[k]);
                 starts.push(self.starts[i]);
                 if !self.moments.is_empty() {
                     moments.push(Moments::default());
+                }
+                if !self.filled.is_empty() {
+                    filled.push(false);
                 }
                 k += 1;
             } else {
@@ -186,6 +207,9 @@ impl Cells {
                 starts.push(self.starts[i]);
                 if !self.moments.is_empty() {
                     moments.push(self.moments[i]);
+                }
+                if !self.filled.is_empty() {
+                    filled.push(self.filled[i]);
                 }
                 i += 1;
             }
@@ -195,7 +219,7 @@ impl Cells {
         self.keys = keys;
         self.starts = starts;
         self.moments = moments;
-        fill.len()
+        self.filled = filled;
     }
 
     /// Edge length of this level's voxels in local units.
@@ -260,6 +284,7 @@ impl Octree {
             starts: vec![0, n],
             moments: Vec::new(),
             index: RankMap::from_sorted(&[0]),
+            filled: Vec::new(),
         };
         Self { frame, points: local, codes, levels: vec![root], distinct }
     }
@@ -290,7 +315,7 @@ impl Octree {
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
         let index = RankMap::from_sorted(&keys);
-        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index });
+        self.levels.push(Cells { level, keys, starts, moments: Vec::new(), index, filled: Vec::new() });
     }
 
     /// Computes the moments of levels `0..=deepest`: `deepest` from the points, the others by

@@ -31,6 +31,15 @@
 //! Tested on a sphere, a torus, a bowl, a disc with a hole, two parallel sheets, a thin closed
 //! plate and a plate with a one-voxel pillar (`tests/promises.rs`).
 //!
+//! Filled voxels ([`crate::regions`]) take no sheet of their own: they allow their parent's
+//! subfaces (on the parent face's side of the parent), and the steps of the transition to a dense
+//! region, slots looking into an empty child of a dense voxel. Such a step is refused only when
+//! it is inwards of every parent face the child lies on (or it lies on none) and its face centre
+//! is more than a quarter voxel behind each oriented sheet around: its parent's (from the level
+//! above), the dense voxel's, and those of the dense voxels around the empty child. A filled
+//! region is up to a voxel thicker than its points, so steps can look sideways or against the
+//! normal; a step behind all these planes is on the inner side of a sheet.
+//!
 //! A hole of one or two voxels in a thinly sampled sheet is a sampling gap, not a hole in the
 //! surface; such gaps are filled with point-less voxels before the mask is built
 //! ([`crate::octree::Cells::fill_gaps`]), so the mask only ever sees holes the data supports.
@@ -39,10 +48,10 @@
 //! layers is read as one sheet and kept one-sided at that level; at level 1 the foot of a thin
 //! protrusion and the plate it stands on can share a voxel and leave a small hole there.
 
-use octowrap_geom::{DVec3, Moments};
+use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
-use crate::lattice::{Side, axis, offset, sign, slot, step};
+use crate::lattice::{Side, axis, offset, opposite, sign, slot, step};
 use crate::octree::{BLOCK, Cells, Octree};
 use crate::rankmap::RankMap;
 
@@ -69,17 +78,28 @@ struct Sheet {
     state: State,
 }
 
+/// Region bits of a filled voxel ([`crate::regions`]): [`FILLED`], and bit `d` when its slot on
+/// side `d` is allowed.
+const FILLED: u8 = 1 << 6;
+
 /// The per-voxel sheets of one level.
 #[derive(Debug, Default)]
 pub(crate) struct Mask {
     sheets: Vec<Sheet>,
     voxel: f64,
+    /// Per voxel, its region bits (empty when no voxel is filled).
+    region: Vec<u8>,
 }
 
 impl Mask {
     /// Whether slot `(cell, side)` of voxel `coords` may carry a face.
     #[inline]
     pub(crate) fn allows(&self, cell: usize, coords: [u32; 3], side: Side) -> bool {
+        if let Some(&r) = self.region.get(cell) {
+            if r & FILLED != 0 {
+                return r & (1 << side) != 0;
+            }
+        }
         let s = &self.sheets[cell];
         if s.state != State::Signed {
             return true;
@@ -89,16 +109,81 @@ impl Mask {
         if dn <= -VOTE {
             return false;
         }
-        let h = self.voxel;
-        let mut centre = DVec3::new(f64::from(coords[0]) + 0.5, f64::from(coords[1]) + 0.5, f64::from(coords[2]) + 0.5);
-        centre[axis(side)] += 0.5 * f64::from(sign(side));
-        (centre * h - s.m).dot(s.n) >= -0.25 * h
+        self.in_front(s, coords, side)
+    }
+
+    /// Whether the centre of face `(coords, side)` lies at most a quarter voxel behind the sheet.
+    #[inline]
+    fn in_front(&self, s: &Sheet, coords: [u32; 3], side: Side) -> bool {
+        in_front(s, coords, side, self.voxel)
     }
 
     /// Number of voxels whose sheet is oriented (and so constrains faces).
     pub(crate) fn signed_count(&self) -> usize {
         self.sheets.iter().filter(|s| s.state == State::Signed).count()
     }
+}
+
+/// Whether the centre of face `(coords, side)` (voxel edge `h`) lies at most a quarter voxel
+/// behind the oriented sheet `s`.
+#[inline]
+fn in_front(s: &Sheet, coords: [u32; 3], side: Side, h: f64) -> bool {
+    let mut centre = DVec3::new(f64::from(coords[0]) + 0.5, f64::from(coords[1]) + 0.5, f64::from(coords[2]) + 0.5);
+    centre[axis(side)] += 0.5 * f64::from(sign(side));
+    (centre * h - s.m).dot(s.n) >= -0.25 * h
+}
+
+/// The allowed sides of filled voxel `i` of `fine` (bits `0..6`, with [`FILLED`]): the subfaces
+/// of its parent's faces on their side of the parent (the parent's topology), and, where the
+/// slot looks into an empty child of a voxel that is not filled (the transition's steps), any
+/// side not inwards of a parent face the child lies on, or whose face is not behind the
+/// oriented sheet of its own parent or of the voxel it looks into.
+fn filled_sides(
+    fine: &Cells,
+    coarse: &Cells,
+    coarse_slots: &RankMap,
+    parent_mask: Option<&Mask>,
+    sheets: &[Sheet],
+    i: usize,
+) -> u8 {
+    let (key, level, h) = (fine.keys[i], fine.level, fine.voxel());
+    let coords = morton::decode(key);
+    let parent = key >> 3;
+    let sheet_of = |p: u64| {
+        parent_mask.zip(coarse.find(p)).and_then(|(m, k)| m.sheets.get(k)).filter(|s| s.state == State::Signed)
+    };
+    let mut touched = 0u8;
+    for d in 0..6u8 {
+        if coarse_slots.contains(slot(parent, d)) && (coords[axis(d)] & 1) == u32::from(sign(d) > 0) {
+            touched |= 1 << d;
+        }
+    }
+    let mut allowed = touched;
+    for side in 0..6u8 {
+        if touched & (1 << side) != 0 {
+            continue;
+        }
+        let Some(next) = offset(key, step(side), level) else { continue };
+        // Only a step into an empty child of an occupied voxel (a dense one: a sparse voxel's
+        // children are all present).
+        if fine.occupied(next) || !coarse.occupied(next >> 3) {
+            continue;
+        }
+        let sideways = touched != 0 && touched & (1 << opposite(side)) == 0;
+        let front = |p: u64| sheet_of(p).is_some_and(|s| in_front(s, coords, side, h));
+        // The sheets of the voxels around the empty one that are not filled.
+        let around = || {
+            BLOCK.iter().any(|&off| {
+                offset(next, off, level).and_then(|k| fine.find(k)).is_some_and(|k| {
+                    !fine.is_filled(k) && sheets[k].state == State::Signed && in_front(&sheets[k], coords, side, h)
+                })
+            })
+        };
+        if sideways || front(parent) || front(next >> 3) || around() {
+            allowed |= 1 << side;
+        }
+    }
+    FILLED | allowed
 }
 
 /// Whether `points` lie in two layers along `n`: by height over the plane `(m, n)`, fewer than a
@@ -166,16 +251,31 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
 }
 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
+/// Filled voxels ([`crate::regions`]) take their parent's sheet from `parent_mask` (the mask of
+/// the level above) and allow only their parent's subfaces, plus the transition's steps.
 #[allow(clippy::too_many_lines, clippy::neg_cmp_op_on_partial_ord)] // the four steps read in order; NaN is unreliable
-pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &RankMap) -> Mask {
+pub(crate) fn build(
+    tree: &Octree,
+    fine: &Cells,
+    coarse: &Cells,
+    coarse_slots: &RankMap,
+    parent_mask: Option<&Mask>,
+) -> Mask {
     let level = fine.level;
     let h = fine.voxel();
     let pts = &tree.points;
+    let faces_on = |p: u64| -> [bool; 6] { std::array::from_fn(|d| coarse_slots.contains(slot(p, d as u8))) };
+    let filled = |i: usize| fine.is_filled(i);
     // 1. Block planes, reliability, two layers.
     let mut sheets: Vec<Sheet> = (0..fine.len())
         .into_par_iter()
         .map(|i| {
             let key = fine.keys[i];
+            if filled(i) {
+                // The parent's sheet (its orientation settled a level above).
+                let inherited = parent_mask.zip(coarse.find(key >> 3)).and_then(|(m, p)| m.sheets.get(p).copied());
+                return inherited.unwrap_or(Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable });
+            }
             let mut block = Moments::default();
             for off in BLOCK {
                 if let Some(k) = offset(key, off, level).and_then(|k| fine.find(k)) {
@@ -203,7 +303,6 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
         .collect();
 
     // 2. Orientation from the coarse faces.
-    let faces_on = |p: u64| -> [bool; 6] { std::array::from_fn(|d| coarse_slots.contains(slot(p, d as u8))) };
     let votes = |faces: [bool; 6], n: DVec3| -> (u32, u32) {
         let (mut pos, mut neg) = (0, 0);
         for (d, present) in faces.iter().enumerate() {
@@ -266,7 +365,7 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
     // the normal, normals within 25 degrees) that disagree both take the tie-break below.
     let conflicted: Vec<usize> = (0..fine.len())
         .into_par_iter()
-        .filter(|&i| sheets[i].state == State::Signed)
+        .filter(|&i| sheets[i].state == State::Signed && !filled(i))
         .filter(|&i| {
             let key = fine.keys[i];
             let mi = fine.moments[i].mean().unwrap_or_default();
@@ -274,6 +373,7 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
                 offset(key, off, level).and_then(|k| fine.find(k)).is_some_and(|k| {
                     let mk = fine.moments[k].mean().unwrap_or_default();
                     sheets[k].state == State::Signed
+                        && !filled(k)
                         && sheets[k].n.dot(sheets[i].n) < -0.9
                         && (mi - mk).dot(sheets[i].n).abs() < 0.1 * h
                 })
@@ -319,5 +419,20 @@ pub(crate) fn build(tree: &Octree, fine: &Cells, coarse: &Cells, coarse_slots: &
             s.state = State::Signed;
         }
     }
-    Mask { sheets, voxel: h }
+    let region: Vec<u8> =
+        if fine.filled.is_empty() {
+            Vec::new()
+        } else {
+            (0..fine.len())
+                .into_par_iter()
+                .map(|i| {
+                    if fine.is_filled(i) {
+                        filled_sides(fine, coarse, coarse_slots, parent_mask, &sheets, i)
+                    } else {
+                        0
+                    }
+                })
+                .collect()
+        };
+    Mask { sheets, voxel: h, region }
 }

@@ -153,3 +153,67 @@ fn plate_with_a_pillar_wraps_the_pillar() {
         assert!(top > 0.3, "level {j}: the pillar is not wrapped (top {top})");
     }
 }
+
+/// A unit sphere sampled densely above the equator and eight times more thinly below it.
+fn half_sparse_sphere() -> Vec<DVec3> {
+    support::sphere(120_000).into_iter().enumerate().filter(|(i, p)| p.z > 0.0 || i % 8 == 0).map(|(_, p)| p).collect()
+}
+
+#[test]
+fn sparse_regions_are_subdivided_inside_closed_crack_free_levels() {
+    let pts = half_sparse_sphere();
+    let mut o = opts(6);
+    o.region_density = 10.0;
+    o.region_levels = 2;
+    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let (h, tops) = build("half-sparse sphere", &pts, &o);
+    assert_eq!(h.levels.len(), r.hierarchy.levels.len());
+    let mut mixed = 0;
+    for (j, (t, rep)) in tops.iter().zip(&r.levels).enumerate().skip(1) {
+        eprintln!("level {j}: {:?}, {} sparse voxels of {} + filled", rep.kind, rep.sparse_voxels, rep.voxels);
+        // Closed, one piece, genus 0: the border between the regions has no crack.
+        assert_eq!((t.boundary_edges, t.components, t.euler), (0, 1, 2), "level {j}");
+        if rep.kind == octowrap_recon::LevelKind::Wrapped && rep.sparse_voxels > 0 {
+            mixed += 1;
+        }
+    }
+    assert!(mixed >= 1, "no level mixed dense and sparse regions");
+    // The sparse half is subdivided: below the equator the faces of a mixed level are their
+    // parents' split 1:4.
+    for (j, rep) in r.levels.iter().enumerate().skip(1) {
+        if rep.kind != octowrap_recon::LevelKind::Wrapped || rep.sparse_voxels == 0 {
+            continue;
+        }
+        let low: Vec<bool> = face_frames(&h.levels[j - 1].mesh).iter().map(|(_, c)| c.z < -0.3).collect();
+        let mut children = vec![0; low.len()];
+        for o in &h.levels[j].origins {
+            if let octowrap_mesh::FaceOrigin::Subface { parent, .. } = o {
+                children[*parent as usize] += 1;
+            }
+        }
+        let parents = low.iter().filter(|&&l| l).count();
+        let split = low.iter().zip(&children).filter(|&(&l, &n)| l && n == 4).count();
+        eprintln!("level {j}: {split} of {parents} parents below z = -0.3 split into four");
+        assert!(parents > 100 && split == parents, "level {j}: the sparse half is not a 1:4 split");
+    }
+}
+
+#[test]
+fn sparse_regions_keep_an_open_bowl_open() {
+    // A bowl sampled thinly on one side: the rim stays one loop at every level.
+    let pts: Vec<DVec3> = support::bowl(80_000, 0.1)
+        .into_iter()
+        .enumerate()
+        .filter(|(i, p)| p.x > 0.0 || i % 8 == 0)
+        .map(|(_, p)| p)
+        .collect();
+    let mut o = opts(6);
+    o.region_density = 10.0;
+    o.region_levels = 2;
+    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    assert!(r.levels.iter().any(|l| l.sparse_voxels > 0), "no sparse region");
+    let (_, tops) = build("half-sparse bowl", &pts, &o);
+    for (j, t) in tops.iter().enumerate().skip(2) {
+        assert_eq!((t.boundary_loops, t.components), (1, 1), "level {j}");
+    }
+}

@@ -112,3 +112,34 @@ fn same_output_for_one_and_two_threads() {
         assert_eq!(a.lattice, b.lattice);
     }
 }
+
+#[test]
+fn sparse_regions_give_the_same_output_for_one_and_two_threads() {
+    let pts: Vec<DVec3> = support::sphere(60_000)
+        .into_iter()
+        .enumerate()
+        .filter(|(i, p)| p.z > 0.2 || i % 6 == 0)
+        .map(|(_, p)| p)
+        .collect();
+    let mut o = level(7);
+    o.region_density = 10.0;
+    o.region_levels = 2;
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("pool")
+            .install(|| octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs"))
+    };
+    let (one, two) = (run(1), run(2));
+    assert!(one.levels.iter().any(|l| l.sparse_voxels > 0), "no sparse region");
+    for (a, b) in one.hierarchy.levels.iter().zip(&two.hierarchy.levels) {
+        assert_eq!(a.mesh.faces, b.mesh.faces);
+        let bits = |l: &octowrap_mesh::Level| -> Vec<[u64; 3]> {
+            l.mesh.vertices.positions.iter().map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).collect()
+        };
+        assert_eq!(bits(a), bits(b));
+        assert_eq!(a.origins, b.origins);
+        assert_eq!(a.lattice, b.lattice);
+    }
+}
