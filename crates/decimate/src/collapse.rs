@@ -9,12 +9,22 @@
 //! work parallel).
 //!
 //! One pass: (1) every edge gets a collapse candidate (which endpoint goes, where the kept one
-//! moves, the quadric error there), in parallel; (2) candidates are sorted by `(error, kept,
-//! removed)`, a total order, so the result does not depend on the thread count; (3) candidates are
-//! applied in order, each after the link condition, the boundary rules and the normal-flip test on
-//! the current mesh, until the triangle target, the error bound, or 1.5 times the error of the
-//! candidate that would reach the target (so that one pass does not spend cheap and dear collapses
-//! alike). A vertex kept or removed in a pass takes no further part in that pass.
+//! moves, the quadric error there), in parallel; (2) the pass's error limit is 1.5 times the error
+//! of the candidate that would reach the triangle target (its rank found by a histogram and a
+//! selection), so that one pass does not spend cheap and dear collapses alike; (3) candidates
+//! under the limit are applied in order of `(error, kept, removed)`, a total order, each after the
+//! link condition, the boundary rules and the normal-flip test on the current mesh, until the
+//! triangle target or the limit. A vertex kept or removed in a pass takes no further part in it.
+//!
+//! Step (3) runs mostly in parallel: vertices, numbered in Morton
+//! order, are cut into blocks of consecutive numbers (compact regions of the surface, whose data
+//! stays in a core's cache), triangles are grouped by the block of their lowest vertex, and a
+//! collapse whose two vertices have all their triangles in one block reads and writes only that
+//! block's data. Those collapses run block by block in parallel, each block's in cost order, as
+//! long as they cannot reach the target (each removes at most two triangles: only the cheapest
+//! candidates are taken when the target is near); the others then follow in cost order over the
+//! whole mesh. The blocks depend on the vertex count only, so the result is the same, bit for bit,
+//! whatever the thread count.
 
 use octowrap_geom::DVec3;
 use rayon::prelude::*;
@@ -104,9 +114,9 @@ impl Csr {
 }
 
 /// Whether some triangle at `from` has the directed edge `from → to`.
-fn has_half_edge(adj: &Csr, tris: &[[u32; 3]], from: u32, to: u32) -> bool {
+fn has_half_edge<T: Tris + ?Sized>(adj: &Csr, tris: &T, from: u32, to: u32) -> bool {
     adj.of(from).iter().any(|&t| {
-        let tri = tris[t as usize];
+        let tri = tris.tri(t);
         (0..3).any(|k| tri[k] == from && tri[(k + 1) % 3] == to)
     })
 }
@@ -277,43 +287,362 @@ struct Candidate {
     to: DVec3,
 }
 
-/// How many candidates ahead the collapse loop loads its vertices' data; their first triangles
-/// are loaded half as far ahead ([`prefetch`]).
-const PREFETCH: usize = 8;
+/// Triangles by their number.
+trait Tris {
+    fn tri(&self, t: u32) -> [u32; 3];
+}
 
-/// The collapse loop is bound by memory latency (candidates come in cost order, scattered over
-/// the mesh): this touches what the candidates after `order[at]` will read, so that their cache
-/// misses overlap the current one's work.
-fn prefetch(
-    order: &[(u64, u32, u32)],
-    at: usize,
-    touched: &[u32],
-    quadrics: &[Quadric],
-    pos: &[DVec3],
-    adj: &Csr,
-    tris: &[[u32; 3]],
-) {
-    if let Some(&(_, x, y)) = order.get(at + PREFETCH) {
-        let (x, y) = (x as usize, y as usize);
-        std::hint::black_box((touched[x], touched[y], quadrics[x].weight(), quadrics[y].weight()));
-        std::hint::black_box((pos[x].x, pos[y].x, adj.off[x], adj.off[y]));
-    }
-    if let Some(&(_, x, y)) = order.get(at + PREFETCH / 2) {
-        for v in [x, y] {
-            if let Some(&t) = adj.of(v).first() {
-                std::hint::black_box(tris[t as usize][0]);
-            }
-        }
+impl Tris for [[u32; 3]] {
+    #[inline]
+    fn tri(&self, t: u32) -> [u32; 3] {
+        self[t as usize]
     }
 }
+
+/// What a candidate is made from: positions, quadrics and triangles, by their numbers in the
+/// whole mesh.
+trait Store: Tris {
+    fn pos(&self, v: u32) -> DVec3;
+    fn quadric(&self, v: u32) -> &Quadric;
+}
+
+/// The whole mesh, read only: candidates are made from it in parallel.
+struct Whole<'a> {
+    pos: &'a [DVec3],
+    quadrics: &'a [Quadric],
+    tris: &'a [[u32; 3]],
+}
+
+impl Tris for Whole<'_> {
+    #[inline]
+    fn tri(&self, t: u32) -> [u32; 3] {
+        self.tris[t as usize]
+    }
+}
+
+impl Store for Whole<'_> {
+    #[inline]
+    fn pos(&self, v: u32) -> DVec3 {
+        self.pos[v as usize]
+    }
+
+    #[inline]
+    fn quadric(&self, v: u32) -> &Quadric {
+        &self.quadrics[v as usize]
+    }
+}
+
+/// Vertices in Morton order are split into blocks of `1 << shift` consecutive numbers (each
+/// block a compact region of the surface). A collapse whose two vertices have all their triangles
+/// within one block reads and writes only that block's data (its vertices, and the triangles
+/// whose lowest vertex is in it), so the blocks' collapses run in parallel; the others follow.
+#[derive(Clone, Copy, Debug)]
+struct Blocks {
+    shift: u32,
+    count: usize,
+}
+
+/// Blocks per mesh, aimed at (a block's data then fits in a core's cache on the dragon).
+const BLOCKS: usize = 64;
+/// Smallest block, in vertices.
+const MIN_BLOCK: usize = 4096;
+
+impl Blocks {
+    fn new(n: usize) -> Self {
+        let len = (n / BLOCKS).max(MIN_BLOCK).next_power_of_two();
+        Self { shift: len.trailing_zeros(), count: n.div_ceil(len).max(1) }
+    }
+
+    fn len(self) -> usize {
+        1 << self.shift
+    }
+
+    fn of(self, v: u32) -> usize {
+        (v >> self.shift) as usize
+    }
+}
+
+/// The live triangles of `tris`, ordered by the block of their lowest vertex (stably), and where
+/// each block's triangles start (one entry more than blocks).
+fn bucket(tris: &[[u32; 3]], blocks: Blocks) -> (Vec<[u32; 3]>, Vec<u32>) {
+    let home = |t: &[u32; 3]| blocks.of(t[0].min(t[1]).min(t[2]));
+    let mut start = vec![0u32; blocks.count + 1];
+    for t in tris.iter().filter(|t| t[0] != DEAD) {
+        start[home(t) + 1] += 1;
+    }
+    for k in 0..blocks.count {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut out = vec![[0u32; 3]; start[blocks.count] as usize];
+    for t in tris.iter().filter(|t| t[0] != DEAD) {
+        let slot = &mut fill[home(t)];
+        out[*slot as usize] = *t;
+        *slot += 1;
+    }
+    (out, start)
+}
+
+/// Whether every triangle at each vertex lies within the vertex's block.
+fn inside(blocks: Blocks, adj: &Csr, tris: &[[u32; 3]]) -> Vec<bool> {
+    (0..adj.off.len().saturating_sub(1) as u32)
+        .into_par_iter()
+        .map(|v| {
+            let home = blocks.of(v);
+            adj.of(v).iter().all(|&t| tris[t as usize].iter().all(|&u| blocks.of(u) == home))
+        })
+        .collect()
+}
+
+/// How many candidates ahead the sequential collapse loop loads its vertices' data; their first
+/// triangles are loaded half as far ahead ([`Part::prefetch`]).
+const PREFETCH: usize = 8;
 
 /// A triangle removed during a pass (in its first corner; vertex numbers stay below `u32::MAX`).
 const DEAD: u32 = u32::MAX;
 
-/// Sort key of a half-edge that makes no candidate.
-const NONE: u64 = u64::MAX;
 /// Sort key of a candidate over the error bound.
-const OVER: u64 = u64::MAX - 1;
+const OVER: u64 = u64::MAX;
+
+/// What collapses change: the data of one block (its vertices from `vbase` on, and its triangles
+/// from `tbase` on), or of the whole mesh (both bases 0). Vertices and triangles keep their
+/// numbers in the whole mesh.
+struct Part<'a> {
+    vbase: u32,
+    tbase: u32,
+    pos: &'a mut [DVec3],
+    quadrics: &'a mut [Quadric],
+    /// The pass that last kept or removed each vertex.
+    touched: &'a mut [u32],
+    rep: &'a mut [u32],
+    /// Per-vertex stamps for the neighbourhood tests (reset when `stamp` would wrap).
+    mark: &'a mut [u32],
+    stamp: u32,
+    tris: &'a mut [[u32; 3]],
+}
+
+impl Tris for Part<'_> {
+    #[inline]
+    fn tri(&self, t: u32) -> [u32; 3] {
+        self.tris[(t - self.tbase) as usize]
+    }
+}
+
+impl Store for Part<'_> {
+    #[inline]
+    fn pos(&self, v: u32) -> DVec3 {
+        self.pos[(v - self.vbase) as usize]
+    }
+
+    #[inline]
+    fn quadric(&self, v: u32) -> &Quadric {
+        &self.quadrics[(v - self.vbase) as usize]
+    }
+}
+
+impl Part<'_> {
+    /// Removes `b` into `a` when that is the candidate of the edge, neither has been touched in
+    /// this pass, and the collapse keeps the mesh manifold and unflipped; returns the number of
+    /// triangles removed (at least one), or `None`.
+    fn collapse(&mut self, kind: &[Kind], adj: &Csr, pass: u32, a: u32, b: u32) -> Option<usize> {
+        let (la, lb) = ((a - self.vbase) as usize, (b - self.vbase) as usize);
+        if self.touched[la] == pass || self.touched[lb] == pass {
+            return None;
+        }
+        // Neither end has changed since the candidate was made, so this gives it back exactly.
+        let c = edge_candidate(&*self, kind, adj, a.min(b), a.max(b), false)?;
+        if c.keep != a || !self.can_collapse(kind, adj, a, b, c.to) {
+            return None;
+        }
+        let mut removed = 0;
+        for &t in adj.of(b) {
+            let tri = &mut self.tris[(t - self.tbase) as usize];
+            if tri[0] == DEAD {
+                continue;
+            }
+            if tri.contains(&a) {
+                *tri = [DEAD; 3];
+                removed += 1;
+            } else {
+                for v in tri {
+                    if *v == b {
+                        *v = a;
+                    }
+                }
+            }
+        }
+        self.pos[la] = c.to;
+        self.quadrics[la] = self.quadrics[la].sum(&self.quadrics[lb]);
+        self.touched[la] = pass;
+        self.touched[lb] = pass;
+        self.rep[lb] = a;
+        Some(removed)
+    }
+
+    /// Whether removing `b` into `a` (moved to `to`) keeps the mesh manifold and unflipped: the
+    /// edge has one or two triangles with distinct apexes; the common neighbours of `a` and `b`
+    /// are exactly those apexes (the link condition); two border vertices join only along a
+    /// boundary edge; the joined vertex keeps at least 3 neighbours (2 on a border), so no
+    /// component shrinks to a double-sided sliver; no surviving triangle around `a` or `b` turns
+    /// its normal by 90 degrees or more.
+    fn can_collapse(&mut self, kind: &[Kind], adj: &Csr, a: u32, b: u32, to: DVec3) -> bool {
+        if self.stamp > u32::MAX - 8 {
+            self.mark.fill(0);
+            self.stamp = 0;
+        }
+        self.stamp += 3;
+        let s = self.stamp;
+        let (vbase, tbase) = (self.vbase, self.tbase);
+        let (pos, tris, mark) = (&*self.pos, &*self.tris, &mut *self.mark);
+        let p = |i: u32| pos[(i - vbase) as usize];
+        let live = |v: u32| adj.of(v).iter().map(move |&t| tris[(t - tbase) as usize]).filter(|t| t[0] != DEAD);
+        let flips = |v: u32, tri: [u32; 3]| {
+            let (x, y, z) = (p(tri[0]), p(tri[1]), p(tri[2]));
+            let before = (y - x).cross(z - x);
+            let q = |i: u32| if i == v { to } else { p(i) };
+            let (x, y, z) = (q(tri[0]), q(tri[1]), q(tri[2]));
+            let after = (y - x).cross(z - x);
+            before != DVec3::ZERO && before.dot(after) <= 1e-4 * before.length() * after.length()
+        };
+        let moves_a = to != p(a);
+        let mut shared = 0usize;
+        let mut apex = [u32::MAX; 2];
+        let mut degree = 0usize;
+        // One walk around b: the edge's triangles, b's neighbours, and flips of b's other faces.
+        for tri in live(b) {
+            if tri.contains(&a) {
+                if shared < 2 {
+                    apex[shared] = tri.into_iter().find(|&v| v != a && v != b).unwrap_or(u32::MAX);
+                }
+                shared += 1;
+            } else if flips(b, tri) {
+                return false;
+            }
+            for v in tri {
+                let m = &mut mark[(v - vbase) as usize];
+                if v != b && v != a && *m != s {
+                    *m = s;
+                    degree += 1;
+                }
+            }
+        }
+        if shared == 0 || shared > 2 || (shared == 2 && apex[0] == apex[1]) {
+            return false;
+        }
+        let (ka, kb) = (kind[a as usize], kind[b as usize]);
+        let border = ka != Kind::Interior || kb != Kind::Interior;
+        if ka != Kind::Interior && kb != Kind::Interior && shared != 1 {
+            return false;
+        }
+        // One walk around a: common neighbours (the link condition) and flips of a's other faces.
+        let mut common = 0usize;
+        for tri in live(a) {
+            if moves_a && !tri.contains(&b) && flips(a, tri) {
+                return false;
+            }
+            for v in tri {
+                if v == a || v == b {
+                    continue;
+                }
+                let m = &mut mark[(v - vbase) as usize];
+                if *m == s {
+                    if !apex.contains(&v) {
+                        return false;
+                    }
+                    *m = s + 1;
+                    common += 1;
+                } else if *m != s + 1 && *m != s + 2 {
+                    *m = s + 2;
+                    degree += 1;
+                }
+            }
+        }
+        common == shared && degree >= if border { 2 } else { 3 }
+    }
+
+    /// Applies the candidates of `order` whose two vertices have all their triangles in one block,
+    /// block by block in parallel (each block's in cost order, on the block's own [`Part`]);
+    /// the others go to `late`. `self` is the whole mesh, `tstart` where each block's triangles
+    /// start. Returns the collapses applied, the triangles removed and the largest error applied.
+    #[allow(clippy::too_many_arguments)]
+    fn in_blocks(
+        &mut self,
+        blocks: Blocks,
+        tstart: &[u32],
+        kind: &[Kind],
+        adj: &Csr,
+        pass: u32,
+        order: Vec<(u64, u32, u32)>,
+        late: &mut Vec<(u64, u32, u32)>,
+    ) -> (usize, usize, f64) {
+        let inside = inside(blocks, adj, self.tris);
+        let mut lists = vec![Vec::new(); blocks.count];
+        for e in order {
+            if inside[e.1 as usize] && inside[e.2 as usize] {
+                lists[blocks.of(e.1)].push(e);
+            } else {
+                late.push(e);
+            }
+        }
+        let len = blocks.len();
+        let mut parts = Vec::with_capacity(blocks.count);
+        let mut tris = &mut *self.tris;
+        let vertices = self.pos.chunks_mut(len).zip(self.quadrics.chunks_mut(len)).zip(self.touched.chunks_mut(len));
+        for (k, (((pos, quadrics), touched), (rep, mark))) in
+            vertices.zip(self.rep.chunks_mut(len).zip(self.mark.chunks_mut(len))).enumerate()
+        {
+            let (mine, after) = std::mem::take(&mut tris).split_at_mut((tstart[k + 1] - tstart[k]) as usize);
+            tris = after;
+            let (vbase, tbase, stamp) = ((k * len) as u32, tstart[k], self.stamp);
+            parts.push(Part { vbase, tbase, pos, quadrics, touched, rep, mark, stamp, tris: mine });
+        }
+        let done: Vec<(usize, usize, f64, u32)> = parts
+            .into_par_iter()
+            .zip(lists)
+            .map(|(mut part, mut list)| {
+                list.sort_unstable();
+                let (mut applied, mut removed, mut reached) = (0, 0, 0.0f64);
+                for (bits, a, b) in list {
+                    if let Some(r) = part.collapse(kind, adj, pass, a, b) {
+                        applied += 1;
+                        removed += r;
+                        reached = reached.max(f64::from_bits(bits));
+                    }
+                }
+                (applied, removed, reached, part.stamp)
+            })
+            .collect();
+        let mut total = (0, 0, 0.0f64);
+        for (a, r, c, s) in done {
+            total = (total.0 + a, total.1 + r, total.2.max(c));
+            self.stamp = self.stamp.max(s);
+        }
+        total
+    }
+
+    /// The sequential loop over the whole mesh is bound by memory latency (candidates come in cost
+    /// order, scattered over the mesh): this touches what the candidates after `order[at]` will
+    /// read, so that their cache misses overlap the current one's work.
+    fn prefetch(&self, order: &[(u64, u32, u32)], at: usize, adj: &Csr) {
+        if let Some(&(_, x, y)) = order.get(at + PREFETCH) {
+            let (x, y) = ((x - self.vbase) as usize, (y - self.vbase) as usize);
+            std::hint::black_box((
+                self.touched[x],
+                self.touched[y],
+                self.quadrics[x].weight(),
+                self.quadrics[y].weight(),
+            ));
+            std::hint::black_box((self.pos[x].x, self.pos[y].x, adj.off[x], adj.off[y]));
+        }
+        if let Some(&(_, x, y)) = order.get(at + PREFETCH / 2) {
+            for v in [x, y] {
+                if let Some(&t) = adj.of(v).first() {
+                    std::hint::black_box(self.tri(t)[0]);
+                }
+            }
+        }
+    }
+}
 
 /// The result of [`run`].
 pub(crate) struct Outcome {
@@ -337,7 +666,7 @@ pub(crate) struct Outcome {
 /// them collapses. `progress` gets the live triangle count after each pass.
 pub(crate) fn run(
     mut pos: Vec<DVec3>,
-    mut tris: Vec<[u32; 3]>,
+    tris: &[[u32; 3]],
     lock_border: bool,
     keep: &[bool],
     target: usize,
@@ -345,6 +674,8 @@ pub(crate) fn run(
     progress: &mut dyn FnMut(usize),
 ) -> Outcome {
     let n = pos.len();
+    let blocks = Blocks::new(n);
+    let (mut tris, mut tstart) = bucket(tris, blocks);
     let mut adj = Csr::build(n, &tris);
     let (mut kind, mut quadrics) = kinds_and_quadrics(&pos, &tris, &adj, lock_border);
     let frozen = kind.iter().filter(|&&k| k == Kind::Frozen).count();
@@ -353,7 +684,8 @@ pub(crate) fn run(
     }
     let mut rep: Vec<u32> = (0..n as u32).collect();
     let mut touched = vec![0u32; n];
-    let mut scratch = Marks { mark: vec![0; n], stamp: 0 };
+    let mut mark = vec![0u32; n];
+    let mut stamp = 0u32;
     let (mut reached, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
     let stop = loop {
         if tris.len() <= target {
@@ -361,83 +693,77 @@ pub(crate) fn run(
         }
         passes += 1;
         let pass = passes as u32;
-        let mut order = edge_keys(&pos, &quadrics, &kind, &adj, &tris, max_cost);
-        let over_bound = order.par_iter().any(|e| e.0 == OVER);
-        order.retain(|e| e.0 < OVER);
+        let (keys, over_bound) =
+            edge_keys(&Whole { pos: &pos, quadrics: &quadrics, tris: &tris }, &kind, &adj, max_cost);
         // The pass stops at 1.5 times the error of the candidate that would reach the target (its
         // rank found by selection), so only the candidates below that are sorted, the rest only
         // when nothing below was valid.
         let goal = (tris.len() - target).div_ceil(2);
-        let mut limit =
-            if goal < order.len() { f64::from_bits(order.select_nth_unstable(goal).1.0) * 1.5 } else { f64::INFINITY }
-                .min(max_cost);
-        let mut rest: Vec<(u64, u32, u32)> = Vec::new();
-        order.retain(|e| {
-            let keep = f64::from_bits(e.0) <= limit;
-            if !keep {
-                rest.push(*e);
-            }
-            keep
-        });
-        order.par_sort_unstable();
+        let mut limit = if goal < keys.len() { cost_at_rank(&keys, goal) * 1.5 } else { f64::INFINITY }.min(max_cost);
+        let mut order: Vec<(u64, u32, u32)> =
+            keys.par_iter().filter(|e| f64::from_bits(e.0) <= limit).copied().collect();
         let mut live = tris.len();
         let mut applied = 0;
+        // Each collapse takes two vertices out of the pass and removes at most two triangles, so
+        // the `m` cheapest candidates (all of them when there are not more collapses than half
+        // the vertices) cannot reach the target: those inside a block run in parallel, each
+        // block's in cost order; the others follow in cost order over the whole mesh.
+        let m = (live - target - 1) / 2;
+        let vertices = (0..n).into_par_iter().filter(|&v| adj.off[v + 1] > adj.off[v]).count();
+        let mut late = if m >= vertices / 2 || m >= order.len() {
+            Vec::new()
+        } else {
+            order.select_nth_unstable(m);
+            order.split_off(m)
+        };
+        let mut whole = Part {
+            vbase: 0,
+            tbase: 0,
+            pos: &mut pos,
+            quadrics: &mut quadrics,
+            touched: &mut touched,
+            rep: &mut rep,
+            mark: &mut mark,
+            stamp,
+            tris: &mut tris,
+        };
+        if !order.is_empty() {
+            let (a, r, c) = whole.in_blocks(blocks, &tstart, &kind, &adj, pass, order, &mut late);
+            applied += a;
+            live -= r;
+            reached = reached.max(c);
+        }
+        late.par_sort_unstable();
+        let mut order = late;
         let mut at = 0;
         loop {
             if at == order.len() {
                 // Nothing cheap was valid: take the dearer candidates rather than stop.
-                if applied > 0 || rest.is_empty() {
+                if applied > 0 || limit >= max_cost {
                     break;
                 }
-                rest.par_sort_unstable();
-                order = std::mem::take(&mut rest);
+                order = keys.par_iter().filter(|e| f64::from_bits(e.0) > limit).copied().collect();
+                order.par_sort_unstable();
                 at = 0;
                 limit = max_cost;
+                continue;
             }
             let (bits, a, b) = order[at];
-            prefetch(&order, at, &touched, &quadrics, &pos, &adj, &tris);
+            whole.prefetch(&order, at, &adj);
             at += 1;
             let cost = f64::from_bits(bits);
             if live <= target || cost > limit {
                 break;
             }
-            if touched[a as usize] == pass || touched[b as usize] == pass {
-                continue;
+            if let Some(r) = whole.collapse(&kind, &adj, pass, a, b) {
+                live -= r;
+                reached = reached.max(cost);
+                applied += 1;
             }
-            // Neither end has changed since the candidate was made, so this gives it back exactly.
-            let Some(c) = edge_candidate(&pos, &quadrics, &kind, &adj, &tris, a.min(b), a.max(b), false) else {
-                continue;
-            };
-            let view = View { pos: &pos, tris: &tris, adj: &adj, kind: &kind };
-            if c.keep != a || !view.can_collapse(a, b, c.to, &mut scratch) {
-                continue;
-            }
-            for &t in adj.of(b) {
-                let t = t as usize;
-                if tris[t][0] == DEAD {
-                    continue;
-                }
-                if tris[t].contains(&a) {
-                    tris[t] = [DEAD; 3];
-                    live -= 1;
-                } else {
-                    for v in &mut tris[t] {
-                        if *v == b {
-                            *v = a;
-                        }
-                    }
-                }
-            }
-            pos[a as usize] = c.to;
-            quadrics[a as usize] = quadrics[a as usize].sum(&quadrics[b as usize]);
-            touched[a as usize] = pass;
-            touched[b as usize] = pass;
-            rep[b as usize] = a;
-            reached = reached.max(cost);
-            applied += 1;
         }
+        stamp = whole.stamp;
         collapses += applied;
-        tris.retain(|t| t[0] != DEAD);
+        (tris, tstart) = bucket(&tris, blocks);
         progress(tris.len());
         if applied == 0 {
             break if over_bound { Stop::ErrorBound } else { Stop::NoValidCollapse };
@@ -446,6 +772,46 @@ pub(crate) fn run(
     };
     resolve(&mut rep);
     Outcome { tris, pos, max_cost: reached, rep, collapses, passes, frozen, stop }
+}
+
+/// Buckets of [`cost_at_rank`]: keys by their top 16 bits (sign, exponent and 4 mantissa bits of
+/// the cost).
+const RANK_BUCKETS: usize = 1 << 16;
+
+/// The cost of the key of rank `rank` (0-based) in sorted order, from a parallel histogram of
+/// the keys' top bits and a selection within the bucket holding that rank: the same key as a
+/// full sort would put there.
+fn cost_at_rank(keys: &[(u64, u32, u32)], rank: usize) -> f64 {
+    let bucket = |e: &(u64, u32, u32)| (e.0 >> 48) as usize;
+    let hist = keys
+        .par_chunks(1 << 17)
+        .map(|c| {
+            let mut h = vec![0u32; RANK_BUCKETS];
+            for e in c {
+                h[bucket(e)] += 1;
+            }
+            h
+        })
+        .reduce(
+            || vec![0u32; RANK_BUCKETS],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        );
+    let mut before = 0usize;
+    let mut at = 0;
+    for (k, &c) in hist.iter().enumerate() {
+        if before + c as usize > rank {
+            at = k;
+            break;
+        }
+        before += c as usize;
+    }
+    let mut within: Vec<(u64, u32, u32)> = keys.par_iter().filter(|e| bucket(e) == at).copied().collect();
+    f64::from_bits(within.select_nth_unstable(rank - before).1.0)
 }
 
 /// Points each removed vertex at the survivor it went into (`rep` holds the vertex each one went
@@ -460,56 +826,52 @@ fn resolve(rep: &mut [u32]) {
     }
 }
 
-/// One sort key per edge: (error bits, kept, removed). Errors are >= 0, so their bit patterns
+/// One sort key per edge that makes a candidate: (error bits, kept, removed), and whether some
+/// candidate was over `max_cost` (those are left out). Errors are >= 0, so their bit patterns
 /// sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
-/// whatever the thread count. Half-edges that make no candidate get [`NONE`], over-bound edges
-/// [`OVER`].
-fn edge_keys(
-    pos: &[DVec3],
-    quadrics: &[Quadric],
-    kind: &[Kind],
-    adj: &Csr,
-    tris: &[[u32; 3]],
-    max_cost: f64,
-) -> Vec<(u64, u32, u32)> {
-    (0..tris.len() * 3)
-        .into_par_iter()
-        .map(|h| {
-            let tri = tris[h / 3];
-            let (i, j) = (tri[h % 3], tri[(h + 1) % 3]);
-            match edge_candidate(pos, quadrics, kind, adj, tris, i, j, true) {
-                Some(c) if c.cost <= max_cost => (c.cost.to_bits(), c.keep, c.remove),
-                Some(_) => (OVER, 0, 0),
-                None => (NONE, 0, 0),
-            }
+/// whatever the thread count.
+fn edge_keys(s: &Whole<'_>, kind: &[Kind], adj: &Csr, max_cost: f64) -> (Vec<(u64, u32, u32)>, bool) {
+    let mut keys: Vec<(u64, u32, u32)> = s
+        .tris
+        .par_iter()
+        .flat_map_iter(|tri| {
+            (0..3).filter_map(move |k| {
+                let c = edge_candidate(s, kind, adj, tri[k], tri[(k + 1) % 3], true)?;
+                Some(if c.cost <= max_cost { (c.cost.to_bits(), c.keep, c.remove) } else { (OVER, 0, 0) })
+            })
         })
-        .collect()
+        .collect();
+    let over = keys.par_iter().any(|e| e.0 == OVER);
+    if over {
+        keys.retain(|e| e.0 != OVER);
+    }
+    (keys, over)
 }
 
 /// The candidate of edge `i-j`. With `half_edge`, `i -> j` is a half-edge of the mesh and the
 /// candidate is made only once per edge: from its half-edge with `i < j`, or from its only one.
-#[allow(clippy::too_many_arguments)]
-fn edge_candidate(
-    pos: &[DVec3],
-    quadrics: &[Quadric],
+fn edge_candidate<S: Store + ?Sized>(
+    s: &S,
     kind: &[Kind],
     adj: &Csr,
-    tris: &[[u32; 3]],
     i: u32,
     j: u32,
     half_edge: bool,
 ) -> Option<Candidate> {
     // A boundary edge joins two non-interior vertices: skip the search otherwise.
     let interior = kind[i as usize] == Kind::Interior || kind[j as usize] == Kind::Interior;
-    let boundary = !interior && (!has_half_edge(adj, tris, i, j) || !has_half_edge(adj, tris, j, i));
+    if half_edge && i > j && interior {
+        return None;
+    }
+    let boundary = !interior && (!has_half_edge(adj, s, i, j) || !has_half_edge(adj, s, j, i));
     if half_edge && i > j && !boundary {
         return None;
     }
-    candidate(pos, quadrics, kind, i.min(j), i.max(j), boundary)
+    candidate(s, kind, i.min(j), i.max(j), boundary)
 }
 
 /// Where the collapse of edge `i-j` (`i < j`) would put the kept vertex, and at what error.
-fn candidate(pos: &[DVec3], quadrics: &[Quadric], kind: &[Kind], i: u32, j: u32, boundary: bool) -> Option<Candidate> {
+fn candidate<S: Store + ?Sized>(s: &S, kind: &[Kind], i: u32, j: u32, boundary: bool) -> Option<Candidate> {
     use Kind::{Border, Interior, Locked};
     let (ki, kj) = (kind[i as usize], kind[j as usize]);
     // May x be removed into y?
@@ -518,8 +880,8 @@ fn candidate(pos: &[DVec3], quadrics: &[Quadric], kind: &[Kind], i: u32, j: u32,
         (Border, Border | Locked) => boundary,
         _ => false,
     };
-    let (pi, pj) = (pos[i as usize], pos[j as usize]);
-    let q = quadrics[i as usize].sum(&quadrics[j as usize]);
+    let (pi, pj) = (s.pos(i), s.pos(j));
+    let q = s.quadric(i).sum(s.quadric(j));
     let (keep, remove, to) = match (can(ki, kj), can(kj, ki)) {
         (true, true) => {
             let to = if ki == Interior {
@@ -537,110 +899,6 @@ fn candidate(pos: &[DVec3], quadrics: &[Quadric], kind: &[Kind], i: u32, j: u32,
     };
     let cost = q.error(to);
     cost.is_finite().then_some(Candidate { cost, keep, remove, to })
-}
-
-/// Per-vertex stamps for the neighbourhood tests (reset when the stamp would wrap).
-struct Marks {
-    mark: Vec<u32>,
-    stamp: u32,
-}
-
-impl Marks {
-    fn next(&mut self) -> u32 {
-        if self.stamp > u32::MAX - 8 {
-            self.mark.fill(0);
-            self.stamp = 0;
-        }
-        self.stamp += 3;
-        self.stamp
-    }
-}
-
-/// The mesh during a pass.
-struct View<'a> {
-    pos: &'a [DVec3],
-    tris: &'a [[u32; 3]],
-    adj: &'a Csr,
-    kind: &'a [Kind],
-}
-
-impl View<'_> {
-    fn live(&self, v: u32) -> impl Iterator<Item = [u32; 3]> + '_ {
-        self.adj.of(v).iter().map(|&t| self.tris[t as usize]).filter(|t| t[0] != DEAD)
-    }
-
-    /// Whether removing `b` into `a` (moved to `to`) keeps the mesh manifold and unflipped: the
-    /// edge has one or two triangles with distinct apexes; the common neighbours of `a` and `b`
-    /// are exactly those apexes (the link condition); two border vertices join only along a
-    /// boundary edge; the joined vertex keeps at least 3 neighbours (2 on a border), so no
-    /// component shrinks to a double-sided sliver; no surviving triangle around `a` or `b` turns
-    /// its normal by 90 degrees or more.
-    fn can_collapse(&self, a: u32, b: u32, to: DVec3, marks: &mut Marks) -> bool {
-        let flips = |v: u32, tri: [u32; 3]| {
-            let p = |i: u32| self.pos[i as usize];
-            let (x, y, z) = (p(tri[0]), p(tri[1]), p(tri[2]));
-            let before = (y - x).cross(z - x);
-            let q = |i: u32| if i == v { to } else { p(i) };
-            let (x, y, z) = (q(tri[0]), q(tri[1]), q(tri[2]));
-            let after = (y - x).cross(z - x);
-            before != DVec3::ZERO && before.dot(after) <= 1e-4 * before.length() * after.length()
-        };
-        let moves_a = to != self.pos[a as usize];
-        let s = marks.next();
-        let mark = &mut marks.mark;
-        let mut shared = 0usize;
-        let mut apex = [u32::MAX; 2];
-        let mut degree = 0usize;
-        // One walk around b: the edge's triangles, b's neighbours, and flips of b's other faces.
-        for tri in self.live(b) {
-            if tri.contains(&a) {
-                if shared < 2 {
-                    apex[shared] = tri.into_iter().find(|&v| v != a && v != b).unwrap_or(u32::MAX);
-                }
-                shared += 1;
-            } else if flips(b, tri) {
-                return false;
-            }
-            for v in tri {
-                if v != b && v != a && mark[v as usize] != s {
-                    mark[v as usize] = s;
-                    degree += 1;
-                }
-            }
-        }
-        if shared == 0 || shared > 2 || (shared == 2 && apex[0] == apex[1]) {
-            return false;
-        }
-        let (ka, kb) = (self.kind[a as usize], self.kind[b as usize]);
-        let border = ka != Kind::Interior || kb != Kind::Interior;
-        if ka != Kind::Interior && kb != Kind::Interior && shared != 1 {
-            return false;
-        }
-        // One walk around a: common neighbours (the link condition) and flips of a's other faces.
-        let mut common = 0usize;
-        for tri in self.live(a) {
-            if moves_a && !tri.contains(&b) && flips(a, tri) {
-                return false;
-            }
-            for v in tri {
-                if v == a || v == b {
-                    continue;
-                }
-                let m = &mut mark[v as usize];
-                if *m == s {
-                    if !apex.contains(&v) {
-                        return false;
-                    }
-                    *m = s + 1;
-                    common += 1;
-                } else if *m != s + 1 && *m != s + 2 {
-                    *m = s + 2;
-                    degree += 1;
-                }
-            }
-        }
-        common == shared && degree >= if border { 2 } else { 3 }
-    }
 }
 
 #[cfg(test)]

@@ -148,10 +148,15 @@ pub fn decimate_with_progress(
     }
     let tris = mesh.triangles();
     let pos = &mesh.vertices.positions;
-    if let Some(&v) = tris.iter().flatten().find(|&&v| !pos[v as usize].is_finite()) {
+    let finite = |v: &u32| pos[*v as usize].is_finite();
+    if let Some(t) = tris.par_iter().find_first(|t| !t.iter().all(finite)) {
+        let v = t.iter().copied().find(|v| !finite(v)).unwrap_or(t[0]);
         return Err(Error::NonFinite { vertex: v });
     }
-    let bounds = Aabb::from_points(tris.iter().flatten().map(|&v| &pos[v as usize]));
+    let bounds = tris
+        .par_chunks(1 << 14)
+        .map(|c| Aabb::from_points(c.iter().flatten().map(|&v| &pos[v as usize])))
+        .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
     let diagonal = if bounds.is_empty() { 0.0 } else { bounds.diagonal() };
     let max_error = match opts.max_error {
         None => f64::INFINITY,
@@ -196,7 +201,7 @@ pub fn decimate_with_progress(
     let scale = if diagonal > 0.0 { diagonal } else { 1.0 };
     let centre = if bounds.is_empty() { DVec3::ZERO } else { bounds.center() };
     let unit: Vec<DVec3> =
-        pos.iter().map(|&p| if p.is_finite() { (p - centre) / scale } else { DVec3::ZERO }).collect();
+        pos.par_iter().map(|&p| if p.is_finite() { (p - centre) / scale } else { DVec3::ZERO }).collect();
     let run = Run { mesh, unit: &unit, tris: &tris, opts, repair, scale, centre, input_faces, diagonal };
     // The measurement's absolute slack stays well below the bound, so that it can be met (down to
     // a billionth of the diagonal, below which rounding noise makes the search long).
@@ -414,7 +419,7 @@ fn collapse_coherent(
     for (new, &old) in perm.iter().enumerate() {
         inv[old as usize] = new as u32;
     }
-    let local: Vec<DVec3> = perm.iter().map(|&o| unit[o as usize]).collect();
+    let local: Vec<DVec3> = perm.par_iter().map(|&o| unit[o as usize]).collect();
     // Triangles by their lowest vertex (a counting sort; input order within a vertex).
     let lowest = |t: &[u32; 3]| inv[t[0] as usize].min(inv[t[1] as usize]).min(inv[t[2] as usize]) as usize;
     let mut start = vec![0u32; unit.len() + 1];
@@ -432,11 +437,11 @@ fn collapse_coherent(
     }
     let local_keep: Vec<bool> =
         if keep.is_empty() { Vec::new() } else { perm.iter().map(|&o| keep[o as usize]).collect() };
-    let mut out = collapse::run(local, local_tris, lock_border, &local_keep, target, max_cost, progress);
+    let mut out = collapse::run(local, &local_tris, lock_border, &local_keep, target, max_cost, progress);
     for t in &mut out.tris {
         *t = t.map(|v| perm[v as usize]);
     }
-    out.pos = inv.iter().map(|&n| out.pos[n as usize]).collect();
-    out.rep = inv.iter().map(|&n| perm[out.rep[n as usize] as usize]).collect();
+    out.pos = inv.par_iter().map(|&n| out.pos[n as usize]).collect();
+    out.rep = inv.par_iter().map(|&n| perm[out.rep[n as usize] as usize]).collect();
     out
 }

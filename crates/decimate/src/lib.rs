@@ -45,9 +45,11 @@
 //! is redone with a triangle target lowered in proportion, so the target is always met. The output is a valid polygon mesh in any writable format.
 //! [`QuadMode`] forces either behaviour.
 //!
-//! **Determinism.** Parallel work (rayon) only fills ordered arrays; candidate collapses are
-//! sorted by a total order and applied sequentially, so the output is the same, bit for bit,
-//! whatever the thread count.
+//! **Determinism.** Candidate collapses are sorted by a total order; they are applied block by
+//! block in parallel (blocks of consecutive vertex numbers, set by the vertex count alone: a
+//! collapse runs there when all it reads and writes lies in its block), then the rest in order
+//! over the whole mesh; other parallel work only fills ordered arrays. So the output is the
+//! same, bit for bit, whatever the thread count.
 //!
 //! ```
 //! use octowrap_decimate::{decimate, DecimateOptions, ErrorBound};

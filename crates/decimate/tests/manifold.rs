@@ -317,6 +317,50 @@ fn same_bytes_whatever_the_thread_count() {
 }
 
 #[test]
+fn meshes_of_many_blocks_give_the_same_bytes_and_stay_manifold() {
+    // Over 4,096 vertices a mesh is cut into blocks whose collapses run in parallel: meshes of
+    // several blocks, closed and open, at 1, 2 and 4 threads, down to a few passes of work and to
+    // the last pass's target.
+    let sphere = cube_sphere(64);
+    let land = terrain(150);
+    assert!(sphere.vertex_count() > 5 * 4096 && land.vertex_count() > 5 * 4096);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut out = Vec::new();
+            for (mesh, target) in [(&sphere, 20_000), (&sphere, 500), (&land, 4_000)] {
+                let mut opts = DecimateOptions::target_faces(target);
+                opts.measure = false;
+                out.push(decimate(mesh, &opts).unwrap());
+            }
+            let mut bordered = DecimateOptions::target_faces(2_000);
+            bordered.lock_border = true;
+            bordered.measure = false;
+            out.push(decimate(&land, &bordered).unwrap());
+            out
+        })
+    };
+    let one = run(1);
+    let bits = |m: &Mesh| m.vertices.positions.iter().flat_map(|p| p.to_array().map(f64::to_bits)).collect::<Vec<_>>();
+    for threads in [2, 4] {
+        for (a, b) in one.iter().zip(run(threads)) {
+            assert_eq!(a.mesh.faces, b.mesh.faces, "{threads} threads");
+            assert_eq!(bits(&a.mesh), bits(&b.mesh), "{threads} threads");
+            assert_eq!(a.report, b.report, "{threads} threads");
+        }
+    }
+    for (out, (name, input, target)) in one.iter().zip([
+        ("sphere", &sphere, 20_000),
+        ("sphere", &sphere, 500),
+        ("terrain", &land, 4_000),
+        ("terrain, locked border", &land, 2_000),
+    ]) {
+        assert_no_worse(name, input, &out.mesh);
+        assert!(out.mesh.faces.len() <= target && out.mesh.faces.len() * 10 >= target * 9, "{name}: {:?}", out.report);
+    }
+}
+
+#[test]
 fn hostile_options_and_input() {
     let land = terrain(4);
     assert!(decimate(&land, &DecimateOptions::default()).is_err());
