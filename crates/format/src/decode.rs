@@ -47,6 +47,9 @@ pub struct PlainLevel {
     pub q: Vec<[i64; 3]>,
     /// Positions of the vertices (exact files).
     pub exact: Vec<[f64; 3]>,
+    /// Mode 3 levels: per face its rotation byte when none of its corners is an exception (then
+    /// it is the face's orientation as a parent, spec §5.3), else `u8::MAX`; empty otherwise.
+    pub rotation_hints: Vec<u8>,
 }
 
 impl PlainLevel {
@@ -58,6 +61,7 @@ impl PlainLevel {
             q: &self.q,
             slots: self.slots.as_deref(),
             corners: self.corners.as_deref(),
+            rotation_hints: &self.rotation_hints,
         }
     }
 }
@@ -317,6 +321,9 @@ pub fn decode_level(
                 );
             }
             out.offsets.extend((1..=nf as u32).map(|f| 4 * f));
+            if mode == Mode::FastLattice {
+                out.rotation_hints = rots.to_vec();
+            }
             let (mut lo, mut hi) = (u64::MAX, 0);
             for (f, (slot, &r)) in slots.iter().zip(rots).enumerate() {
                 let keys = lattice::slot_corner_keys(slot.0, slot.1, k);
@@ -405,6 +412,7 @@ pub fn decode_level(
                 fast_resolve,
                 faces,
                 &mut fast_geometry.contexts,
+                &mut out.rotation_hints,
             )?;
             out.corners = Some(corners);
             out.slots = Some(slots);

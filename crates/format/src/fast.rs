@@ -540,7 +540,8 @@ pub type LevelFaces<'a> = (&'a [u32], &'a [u8], &'a [([u32; 4], u8)]);
 #[allow(clippy::too_many_lines, clippy::too_many_arguments)] // spec §5.9 in order
 /// Corner resolution of mode 3 (spec §5.9): `pred[c]` is corner `c`'s predicted lattice key
 /// (depth `k`, valid); fills `indices` (corner to vertex, first-use numbering), clears `pos[c]` at
-/// exception corners, and returns every vertex's lattice corner.
+/// exception corners (and `rotation_hints` of their faces), and returns every vertex's lattice
+/// corner.
 pub fn resolve(
     k: u32,
     nv: usize,
@@ -551,6 +552,7 @@ pub fn resolve(
     scratch: &mut ResolveScratch,
     (parents, quadrants, parent_quads): LevelFaces<'_>,
     ctx: &mut Contexts,
+    rotation_hints: &mut [u8],
 ) -> Result<Vec<[u32; 3]>, Error> {
     let nc = pred.len();
     // The contexts of [`contexts`], found on the way (the decoder needs no second pass).
@@ -632,6 +634,8 @@ pub fn resolve(
             }
             indices[c] = v as u32;
             pos[c] = NO_POS;
+            // The face's corners no longer all sit on its slot's canonical corners.
+            rotation_hints[c / 4] = u8::MAX;
             exc_left -= 1;
             next_exc = if exc_left > 0 {
                 let gap = e.varint_max(nc as u64, "exception position gap")? as usize;

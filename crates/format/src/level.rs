@@ -183,6 +183,8 @@ pub struct Parent<'a> {
     pub slots: Option<&'a [([u32; 3], u8)]>,
     /// Lattice corners of the parent's vertices, if any.
     pub corners: Option<&'a [[u32; 3]]>,
+    /// Per face, its orientation when known in advance (`u8::MAX`: compute it), or empty.
+    pub rotation_hints: &'a [u8],
 }
 
 impl Parent<'_> {
@@ -207,6 +209,16 @@ impl Parent<'_> {
             let face = self.face(f);
             if face.len() != 4 {
                 return Err(f);
+            }
+            if let Some(&r) = self.rotation_hints.get(f).filter(|&&r| r < 8) {
+                // A mode 3 face without exceptions: every corner sits on the slot corner its
+                // rotation byte puts it at, so that rotation is the only one matching all four.
+                let mut quad = [0u32; 4];
+                for (k, &vi) in face.iter().enumerate() {
+                    quad[rotated(r, k)] = vi;
+                }
+                out.push((quad, r));
+                continue;
             }
             let (v, d) = slots[f];
             let sc = lattice::slot_corners(v, d);
