@@ -267,7 +267,7 @@ impl Octree {
             })
             .collect();
         sort_codes(&mut pairs, 3 * CODE_BITS);
-        let distinct = 1 + pairs.windows(2).filter(|w| w[0].0 != w[1].0).count();
+        let distinct = 1 + (1..pairs.len()).into_par_iter().filter(|&i| pairs[i].0 != pairs[i - 1].0).count();
         let local: Vec<Vec3> = pairs
             .par_iter()
             .map(|&(_, i)| {
@@ -354,32 +354,59 @@ impl Octree {
     }
 }
 
-/// Sorts `(code, index)` pairs whose codes have at most `key_bits` bits: a counting pass by the
+/// Sorts `(code, index)` pairs whose codes have at most `key_bits` bits: a bucket pass by the
 /// top 12 bits (for the full-depth codes of the points, the level-4 voxel), then the buckets in
-/// parallel. `par_sort_unstable` partitions its top levels on one
-/// thread; this spends one sequential pass and sorts the rest fully in parallel, into the same
-/// order (the pairs are distinct).
+/// parallel. `par_sort_unstable` partitions its top levels on one thread; this sorts fully in
+/// parallel, into the same order (the pairs are distinct, so the sorted order is unique).
+///
+/// The bucket pass is parallel too: the input is cut into a fixed number of chunks (not one per
+/// thread), each chunk counts its pairs per bucket, and the output is split, bucket by bucket,
+/// into one sub-slice per chunk, so every chunk scatters into slices of its own. The order inside
+/// a bucket before its sort is the input order either way, and the sort makes it irrelevant.
 pub(crate) fn sort_codes(pairs: &mut Vec<(u64, u32)>, key_bits: u32) {
     const BITS: u32 = 12;
+    const BUCKETS: usize = 1 << BITS;
+    // At most 64 chunks, each of at least 2^14 pairs (fewer for small inputs).
+    let chunk = pairs.len().div_ceil(64).max(1 << 14);
     let shift = key_bits.saturating_sub(BITS);
-    let mut first = vec![0usize; (1 << BITS) + 1];
-    for p in pairs.iter() {
-        first[(p.0 >> shift) as usize + 1] += 1;
-    }
-    for i in 0..1 << BITS {
-        first[i + 1] += first[i];
-    }
+    let bucket = |p: &(u64, u32)| (p.0 >> shift) as usize;
+    let counts: Vec<Vec<u32>> = pairs
+        .par_chunks(chunk)
+        .map(|c| {
+            let mut h = vec![0u32; BUCKETS];
+            for p in c {
+                h[bucket(p)] += 1;
+            }
+            h
+        })
+        .collect();
     let mut out = vec![(0u64, 0u32); pairs.len()];
-    let mut fill = first.clone();
-    for &p in pairs.iter() {
-        let b = (p.0 >> shift) as usize;
-        out[fill[b]] = p;
-        fill[b] += 1;
+    let mut sizes = vec![0usize; BUCKETS];
+    {
+        // Bucket-major, chunk-minor sub-slices, handed to their chunks.
+        let mut targets: Vec<Vec<&mut [(u64, u32)]>> = counts.iter().map(|_| Vec::with_capacity(BUCKETS)).collect();
+        let mut rest = out.as_mut_slice();
+        for (b, size) in sizes.iter_mut().enumerate() {
+            for (h, t) in counts.iter().zip(&mut targets) {
+                let (here, tail) = rest.split_at_mut(h[b] as usize);
+                t.push(here);
+                rest = tail;
+                *size += h[b] as usize;
+            }
+        }
+        pairs.par_chunks(chunk).zip(targets).for_each(|(c, mut t)| {
+            let mut fill = vec![0usize; BUCKETS];
+            for p in c {
+                let b = bucket(p);
+                t[b][fill[b]] = *p;
+                fill[b] += 1;
+            }
+        });
     }
-    let mut buckets = Vec::with_capacity(1 << BITS);
+    let mut buckets = Vec::with_capacity(BUCKETS);
     let mut rest = out.as_mut_slice();
-    for w in first.windows(2) {
-        let (bucket, tail) = rest.split_at_mut(w[1] - w[0]);
+    for &size in &sizes {
+        let (bucket, tail) = rest.split_at_mut(size);
         if !bucket.is_empty() {
             buckets.push(bucket);
         }
