@@ -17,6 +17,7 @@
 use octowrap_geom::{DVec3, morton};
 use octowrap_mesh::{FaceOrigin, Quadrant};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 
 use crate::lattice::{axis, corner_offset, plane_axes, sign, slot, unslot};
 
@@ -35,73 +36,113 @@ pub(crate) struct Subdivided {
     pub positions: Vec<DVec3>,
 }
 
-/// Splits every quad into four.
-pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64], positions: &[DVec3]) -> Subdivided {
-    // Face edges `4 f + k` grouped by their smaller vertex (a counting sort, stable), then by the
-    // larger one within each group: the order of sorting `(min, max, 4 f + k)`, in O(n) and with
-    // 8 bytes per face edge.
-    let ends = |f: usize, k: usize| {
-        let (a, b) = (quads[f][k], quads[f][(k + 1) % 4]);
+/// The edge points of `quads` (over `nv` vertices): per face edge `4 f + k`, its edge point's
+/// number, and per edge point, its two ends `(smaller, larger)`; edge points are numbered from `nv`
+/// in the order of their ends, and the first one after them is returned too.
+fn edge_points(quads: &[[u32; 4]], nv: usize) -> (Vec<u32>, Vec<(u32, u32)>, u32) {
+    let nf = quads.len();
+    let ends = |q: &[u32; 4], k: usize| {
+        let (a, b) = (q[k], q[(k + 1) % 4]);
         (a.min(b), a.max(b))
     };
-    let mut first = vec![0u32; corners.len() + 1];
-    for f in 0..quads.len() {
-        for k in 0..4 {
-            first[ends(f, k).0 as usize + 1] += 1;
-        }
-    }
-    for i in 0..corners.len() {
-        first[i + 1] += first[i];
-    }
-    let mut edges = vec![(0u32, 0u32); 4 * quads.len()];
-    {
-        let mut fill = first.clone();
-        for f in 0..quads.len() {
+    // Face edges `4 f + k` grouped by their smaller vertex (a counting sort), then by the larger
+    // one and the face edge within each group: the order of sorting `(min, max, 4 f + k)`, in O(n)
+    // and with 8 bytes per face edge.
+    let first: Vec<u32> = {
+        let counts: Vec<AtomicU32> = (0..=nv).map(|_| AtomicU32::new(0)).collect();
+        quads.par_iter().for_each(|q| {
             for k in 0..4 {
-                let (a, b) = ends(f, k);
-                edges[fill[a as usize] as usize] = (b, (4 * f + k) as u32);
-                fill[a as usize] += 1;
+                counts[ends(q, k).0 as usize + 1].fetch_add(1, Relaxed);
             }
+        });
+        let mut first: Vec<u32> = counts.into_iter().map(AtomicU32::into_inner).collect();
+        for i in 0..nv {
+            first[i + 1] += first[i];
         }
-    }
-    for w in first.windows(2) {
-        edges[w[0] as usize..w[1] as usize].sort_unstable();
-    }
-    // Edge point of every face edge.
-    let mut edge_vertex = vec![0u32; 4 * quads.len()];
-    // At most one edge point per face edge and one face point per face: reserved up front so
-    // that the vectors never move (pages reserved but never written are not resident).
-    let most = corners.len() + 5 * quads.len();
-    let mut out_corners: Vec<[u32; 3]> = Vec::with_capacity(most);
-    out_corners.par_extend(corners.par_iter().map(|c| c.map(|x| 2 * x)));
-    let mut out_pos: Vec<DVec3> = Vec::with_capacity(most);
-    out_pos.par_extend(positions.par_iter().copied());
-    for (a, w) in first.windows(2).enumerate() {
-        let group = &edges[w[0] as usize..w[1] as usize];
-        let mut i = 0;
-        while i < group.len() {
-            let b = group[i].0;
-            let id = out_corners.len() as u32;
-            let (ca, cb) = (corners[a], corners[b as usize]);
-            out_corners.push([ca[0] + cb[0], ca[1] + cb[1], ca[2] + cb[2]]);
-            out_pos.push((positions[a] + positions[b as usize]) * 0.5);
-            while i < group.len() && group[i].0 == b {
-                edge_vertex[group[i].1 as usize] = id;
-                i += 1;
+        first
+    };
+    let group = |a: usize| first[a] as usize..first[a + 1] as usize;
+    // `larger << 32 | face edge`, so that sorting the words sorts the pairs.
+    let mut edges: Vec<u64> = {
+        let fill: Vec<AtomicU32> = first[..nv].iter().map(|&f| AtomicU32::new(f)).collect();
+        let edges: Vec<AtomicU64> = (0..4 * nf).map(|_| AtomicU64::new(0)).collect();
+        quads.par_iter().enumerate().for_each(|(f, q)| {
+            for k in 0..4 {
+                let (a, b) = ends(q, k);
+                let at = fill[a as usize].fetch_add(1, Relaxed);
+                edges[at as usize].store(u64::from(b) << 32 | (4 * f + k) as u64, Relaxed);
             }
+        });
+        edges.into_iter().map(AtomicU64::into_inner).collect()
+    };
+    {
+        let mut groups: Vec<&mut [u64]> = Vec::with_capacity(nv);
+        let mut rest = edges.as_mut_slice();
+        for w in first.windows(2) {
+            let (here, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+            if here.len() > 1 {
+                groups.push(here);
+            }
+            rest = tail;
         }
+        groups.into_par_iter().for_each(<[u64]>::sort_unstable);
     }
-    drop(edges);
-    drop(first);
-    // Face points, then four children per face (in parallel: the face point of face `f` is
-    // vertex `base + f`, so the numbering does not depend on the order of work).
-    let base = out_corners.len() as u32;
-    out_corners.par_extend(quads.par_iter().map(|q| {
-        let c: [[u32; 3]; 4] = q.map(|v| corners[v as usize]);
-        std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2)
-    }));
-    out_pos.par_extend(quads.par_iter().map(|q| q.iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25));
-    let mut quads_out: Vec<[u32; 4]> = vec![[0; 4]; 4 * quads.len()];
+    // Edge points: one per distinct `(a, b)`, numbered from `V` in that order.
+    let distinct_in = |a: usize| {
+        let g = &edges[group(a)];
+        g.iter().enumerate().filter(|&(i, e)| i == 0 || e >> 32 != g[i - 1] >> 32).count() as u32
+    };
+    let mut start: Vec<u32> = (0..nv).into_par_iter().map(distinct_in).collect();
+    let mut total = nv as u32;
+    for s in &mut start {
+        let here = *s;
+        *s = total;
+        total += here;
+    }
+    let base = total;
+    let edge_vertex: Vec<u32> = {
+        let ev: Vec<AtomicU32> = (0..4 * nf).map(|_| AtomicU32::new(0)).collect();
+        (0..nv).into_par_iter().for_each(|a| {
+            let g = &edges[group(a)];
+            let mut id = start[a];
+            for (i, &e) in g.iter().enumerate() {
+                if i > 0 && e >> 32 != g[i - 1] >> 32 {
+                    id += 1;
+                }
+                ev[(e & 0xffff_ffff) as usize].store(id, Relaxed);
+            }
+        });
+        ev.into_iter().map(AtomicU32::into_inner).collect()
+    };
+    let edge_ends: Vec<(u32, u32)> = (0..nv)
+        .into_par_iter()
+        .flat_map_iter(|a| {
+            let g = &edges[group(a)];
+            g.iter()
+                .enumerate()
+                .filter(move |&(i, e)| i == 0 || e >> 32 != g[i - 1] >> 32)
+                .map(move |(_, e)| (a as u32, (e >> 32) as u32))
+        })
+        .collect();
+    (edge_vertex, edge_ends, base)
+}
+
+/// Splits every quad into four.
+///
+/// Every step runs in parallel and gives the numbering of the sequential definition: vertices
+/// `0..V` are the parents' (corners doubled), then one edge point per distinct edge in the order of
+/// `(smaller, larger)` vertex, then one face point per face, and finally all of them renumbered
+/// along the Morton curve of their corners (ties in the order of that numbering). Scattered writes
+/// (the edges' counting sort, each face edge's edge point, the renumbering) go through atomics, the
+/// only way to write to data-dependent places from several threads without `unsafe`; every atomic
+/// value is fixed by the input alone (the counting sort's order inside a group is restored by
+/// sorting the group), so the output does not depend on the threads.
+pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64], positions: &[DVec3]) -> Subdivided {
+    let (nv, nf) = (corners.len(), quads.len());
+    let (edge_vertex, edge_ends, base) = edge_points(quads, nv);
+    // Four children per face: child `k` starts at the parent's corner `k`; the face point of face
+    // `f` is vertex `base + f`.
+    let mut quads_out: Vec<[u32; 4]> = vec![[0; 4]; 4 * nf];
     quads_out.par_chunks_mut(4).zip(quads.par_iter()).enumerate().for_each(|(f, (out, q))| {
         let centre = base + f as u32;
         let ev = &edge_vertex[4 * f..4 * f + 4];
@@ -125,26 +166,55 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
             *o = slot(morton::encode(child[0], child[1], child[2]), d);
         }
     });
-    let origins: Vec<FaceOrigin> = (0..4 * quads.len())
+    let origins: Vec<FaceOrigin> = (0..4 * nf)
         .into_par_iter()
         .map(|i| FaceOrigin::Subface { parent: (i / 4) as u32, quadrant: Quadrant((i % 4) as u8) })
         .collect();
+    // Vertex `i` of the numbering above, without storing it: its corner and initial position
+    // (parents kept, edge points at midpoints, face points at centroids).
+    let (ne, total) = (edge_ends.len(), base as usize + nf);
+    let corner = |i: usize| -> [u32; 3] {
+        if i < nv {
+            corners[i].map(|x| 2 * x)
+        } else if i < nv + ne {
+            let (a, b) = edge_ends[i - nv];
+            let (ca, cb) = (corners[a as usize], corners[b as usize]);
+            [ca[0] + cb[0], ca[1] + cb[1], ca[2] + cb[2]]
+        } else {
+            let c: [[u32; 3]; 4] = quads[i - nv - ne].map(|v| corners[v as usize]);
+            std::array::from_fn(|a| (c[0][a] + c[1][a] + c[2][a] + c[3][a]) / 2)
+        }
+    };
+    let position = |i: usize| -> DVec3 {
+        if i < nv {
+            positions[i]
+        } else if i < nv + ne {
+            let (a, b) = edge_ends[i - nv];
+            (positions[a as usize] + positions[b as usize]) * 0.5
+        } else {
+            quads[i - nv - ne].iter().map(|&v| positions[v as usize]).sum::<DVec3>() * 0.25
+        }
+    };
     // Number the vertices along the Morton curve of their lattice corners, so that the mapping,
     // which visits them in order, queries nearby voxels one after the other.
-    let mut order: Vec<(u64, u32)> =
-        out_corners.par_iter().enumerate().map(|(i, c)| (morton::encode(c[0], c[1], c[2]), i as u32)).collect();
+    let mut order: Vec<(u64, u32)> = (0..total)
+        .into_par_iter()
+        .map(|i| {
+            let c = corner(i);
+            (morton::encode(c[0], c[1], c[2]), i as u32)
+        })
+        .collect();
     // Corners of this level have up to `level + 1` bits per axis.
-    let bits = out_corners.iter().flatten().fold(0u32, |a, &b| a | b);
+    let bits =
+        (0..total).into_par_iter().map(|i| corner(i).iter().fold(0u32, |a, &b| a | b)).reduce(|| 0, |a, b| a | b);
     crate::octree::sort_codes(&mut order, 3 * (32 - bits.leading_zeros()));
-    let mut rank = vec![0u32; order.len()];
-    for (new, &(_, old)) in order.iter().enumerate() {
-        rank[old as usize] = new as u32;
-    }
-    // Each copy in turn, its source freed at once (this is the peak of a subdivided level).
-    let new_corners: Vec<[u32; 3]> = order.par_iter().map(|&(_, old)| out_corners[old as usize]).collect();
-    drop(out_corners);
-    let new_positions: Vec<DVec3> = order.par_iter().map(|&(_, old)| out_pos[old as usize]).collect();
-    drop(out_pos);
+    let rank: Vec<u32> = {
+        let rank: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+        order.par_iter().enumerate().for_each(|(new, &(_, old))| rank[old as usize].store(new as u32, Relaxed));
+        rank.into_iter().map(AtomicU32::into_inner).collect()
+    };
+    let new_corners: Vec<[u32; 3]> = order.par_iter().map(|&(_, old)| corner(old as usize)).collect();
+    let new_positions: Vec<DVec3> = order.par_iter().map(|&(_, old)| position(old as usize)).collect();
     drop(order);
     quads_out.par_iter_mut().for_each(|q| *q = q.map(|v| rank[v as usize]));
     Subdivided { quads: quads_out, corners: new_corners, slots: slots_out, origins, positions: new_positions }
