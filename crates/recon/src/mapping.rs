@@ -82,8 +82,8 @@ fn accumulate(points: &[Vec3], x: DVec3, radius: f64, m: &mut Moments) {
 
 /// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
 fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
-    match crate::fit::plane(m) {
-        Some(p) => (x - p.normal * (-p.point).dot(p.normal), Some(TangentPlane::new(p.point + x, p.normal))),
+    match crate::fit::normal(m) {
+        Some((c, n)) => (x - n * (-c).dot(n), Some(TangentPlane::new(c + x, n))),
         None => (x, None),
     }
 }
@@ -182,9 +182,9 @@ pub(crate) fn map_wrapped(
             for &c in &grown {
                 all.merge(&cells.moments[c]);
             }
-            if let Some(p) = crate::fit::plane(&all) {
-                let projected = x - p.normal * (x - p.point).dot(p.normal);
-                return (projected, Some(TangentPlane::new(p.point, p.normal)));
+            if let Some((c, n)) = crate::fit::normal(&all) {
+                let projected = x - n * (x - c).dot(n);
+                return (projected, Some(TangentPlane::new(c, n)));
             }
         }
         fit(&m, x)
@@ -264,8 +264,7 @@ fn quadric_fit(points: &[(DVec3, f64)], h: f64) -> Option<(DVec3, DVec3)> {
     for &(p, w) in points {
         m.add_weighted(p, w);
     }
-    let plane = crate::fit::plane(&m)?;
-    let (c, n) = (plane.point, plane.normal);
+    let (c, n) = crate::fit::normal(&m)?;
     let u = n.any_orthonormal_vector();
     let v = n.cross(u);
     // The normal equations, upper triangle (the matrix is symmetric).
@@ -445,6 +444,24 @@ impl Lookups {
     }
 }
 
+/// The octants `o` (bit `a` of `o` set: `c[a]`, clear: `c[a] - 1` on axis `a`) of the 2x2x2
+/// voxels around lattice corner `c` that lie inside `[0, n)^3`, as a bit mask.
+#[inline]
+fn octants_inside(c: [i64; 3], n: i64) -> u8 {
+    let mut inside = 0xffu8;
+    for (a, low) in [0x55u8, 0x33, 0x0f].into_iter().enumerate() {
+        let mut axis = 0;
+        if (1..=n).contains(&c[a]) {
+            axis |= low;
+        }
+        if (0..n).contains(&c[a]) {
+            axis |= !low;
+        }
+        inside &= axis;
+    }
+    inside
+}
+
 /// Maps one free vertex at `x` (see [`map_free`]).
 #[inline(never)]
 fn map_one_free(parents: &Cells, kids: &ChildMoments, x: DVec3, cache: &mut Lookups) -> (DVec3, Option<TangentPlane>) {
@@ -453,17 +470,25 @@ fn map_one_free(parents: &Cells, kids: &ChildMoments, x: DVec3, cache: &mut Look
     let c = (x / l).round();
     let c = [c.x as i64, c.y as i64, c.z as i64];
     let mut m = Moments::default();
-    // The children `c - 1` and `c` on each axis have one parent when `c` is odd, two when even:
-    // each distinct parent is looked up once.
-    let base = c.map(|a| (a - 1).div_euclid(2));
+    // The children `c - 1` and `c` on each axis, as octants `o` of the 2x2x2 box (bit `a` set:
+    // `c` on axis `a`), visited in ascending order, those inside `[0, n)^3` only (a mask per
+    // axis, no test per child). The two children have one parent when `c` is odd, two when even
+    // (`c`'s parent is then the next one): parent `o & up` of the box's 2x2x2 parents, each
+    // distinct parent looked up once.
+    let inside = octants_inside(c, n);
+    let up = (0..3).fold(0usize, |u, a| u | usize::from(c[a] & 1 == 0) << a);
+    let lo = c.map(|a| (a - 1) as u32);
     let mut found = [UNKNOWN; 8];
-    for o in 0..8usize {
-        let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
-        if v.iter().any(|&a| a < 0 || a >= n) {
-            continue;
-        }
-        let k = (0..3).fold(0, |k, a| k | (((v[a] >> 1) - base[a]) as usize) << a);
-        let v = v.map(|a| a as u32);
+    let mut todo = inside;
+    while todo != 0 {
+        let o = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        let v = [
+            lo[0].wrapping_add((o & 1) as u32),
+            lo[1].wrapping_add(((o >> 1) & 1) as u32),
+            lo[2].wrapping_add((o >> 2) as u32),
+        ];
+        let k = o & up;
         if found[k] == UNKNOWN {
             found[k] = cache.find(parents, v.map(|a| a >> 1)).map_or(ABSENT, |p| p as u32);
         }
@@ -476,12 +501,12 @@ fn map_one_free(parents: &Cells, kids: &ChildMoments, x: DVec3, cache: &mut Look
         m = Moments::default();
         let c = (x / (2.0 * l)).round();
         let c = [c.x as i64, c.y as i64, c.z as i64];
-        for o in 0..8usize {
-            let v = [c[0] - 1 + (o & 1) as i64, c[1] - 1 + ((o >> 1) & 1) as i64, c[2] - 1 + (o >> 2) as i64];
-            if v.iter().any(|&a| a < 0 || a >= n / 2) {
-                continue;
-            }
-            let v = v.map(|a| a as u32);
+        let lo = c.map(|a| (a - 1) as u32);
+        let mut todo = octants_inside(c, n / 2);
+        while todo != 0 {
+            let o = todo.trailing_zeros();
+            todo &= todo - 1;
+            let v = [lo[0].wrapping_add(o & 1), lo[1].wrapping_add((o >> 1) & 1), lo[2].wrapping_add(o >> 2)];
             if let Some(p) = cache.find(parents, v) {
                 kids.add_parent(p, v, x, &mut m);
             }
