@@ -236,7 +236,11 @@ pub struct FastTopo<'a> {
 
 #[inline]
 fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
-    let at = |x: u32| ((u64::from(x) << bits) >> depth) as i64;
+    // `(x << bits) >> depth` with one shift (x < 2^21, bits <= 28: nothing is lost).
+    let at = |x: u32| {
+        let x = u64::from(x);
+        (if bits >= depth { x << (bits - depth) } else { x >> (depth - bits) }) as i64
+    };
     [at(c[0]), at(c[1]), at(c[2])]
 }
 
@@ -503,9 +507,11 @@ impl ResolveScratch {
 
 const SPLIT: u32 = 1 << 31;
 
+/// The home entry of `key` in a table of `mask + 1` (a power of two, at least 2) entries: the top
+/// bits of a multiplicative hash (the best mixed ones; lattice keys are very regular).
 #[inline]
 fn slot_of(key: u64, mask: usize) -> usize {
-    (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32) as usize & mask
+    (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> (mask as u64).leading_zeros()) as usize & mask
 }
 
 /// Finds `key`'s table entry, or the empty entry where it would go.
