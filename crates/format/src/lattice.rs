@@ -45,7 +45,8 @@ const CORNER_OFFSETS: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
 /// The corner keys (depth `depth`) of the four canonical corners of slot `(voxel, side)`, in
 /// canonical order: [`corner_key`] of [`slot_corners`], with two multiplications instead of eight.
-#[inline]
+#[allow(clippy::inline_always)] // once per face in the level decoder's face loop
+#[inline(always)]
 pub fn slot_corner_keys(voxel: [u32; 3], side: u8, depth: u32) -> [u64; 4] {
     let n = normal_axis(side);
     let (u, w) = plane_axes(side);
@@ -61,7 +62,8 @@ pub fn slot_corner_keys(voxel: [u32; 3], side: u8, depth: u32) -> [u64; 4] {
 }
 
 /// [`child_slot`] under the slot's canonical corner `cp` (`0..4`), which always exists.
-#[inline]
+#[allow(clippy::inline_always)] // once per subface in the level decoder's face loop
+#[inline(always)]
 pub fn child_slot_at(voxel: [u32; 3], side: u8, cp: usize, inner: bool) -> ([u32; 3], u8) {
     let n = normal_axis(side);
     let (u, w) = plane_axes(side);
