@@ -90,26 +90,33 @@
 //!   voxel without points ([`ReconOptions::fill_gaps`]). Dense data keeps its holes (a one-voxel
 //!   hole among voxels of more than 8 points stays), and the bunny's open bottom, many voxels
 //!   wide, stays open. Dragon level 7: 52 boundary loops before, 23 after, same error.
-//! * **Trusted level per region (§4.2)**, optional ([`ReconOptions::region_density`], off by
+//! * **Trusted level per region (§4.2)**, optional ([`ReconOptions::region_levels`], off by
 //!   default): the paper's "fix the topology at a coarser level" read per region, as in the
 //!   prototype's fourth round (`../shared/docs/reconstruction.md`). Before level `j + 1`, a voxel
-//!   whose 3x3x3 block holds fewer than `tau` points per occupied child is sparse (grown by its 26
-//!   neighbours, sparse below); its eight children are all present at `j + 1` (*filled*), so the
-//!   wrapped level reproduces its parent's faces split 1:4 there, inside one crack-free lattice
-//!   mesh. Filled voxels allow their parent's subfaces, plus the transition's steps: a slot looking
-//!   into an empty child of a dense voxel, unless it is inwards of a parent face the child lies on
-//!   and behind every oriented sheet around (its parent's, the dense voxel's, the dense voxels'
-//!   around the empty one). The prototype's "every slot within one voxel of a dense voxel"
-//!   wrapped the inner side of a sampled bowl; the sheet-angle test of `sheet` kept the
-//!   wrong-way steps (a filled region is up to a voxel thicker than its points) closed and cracked
-//!   the border. Diagonal edges between filled voxels take the parents' decisions; their vertices
+//!   whose 3x3x3 block holds fewer than `tau` ([`ReconOptions::region_density`]) points per
+//!   occupied child is sparse (grown by its 26 neighbours, sparse below); its eight children are
+//!   all present at `j + 1` (*filled*), so the wrapped level reproduces its parent's faces split
+//!   1:4 there, inside one crack-free lattice mesh. Filled voxels allow their parent's subfaces,
+//!   plus the transition's steps: a slot looking into an empty child of a dense voxel, unless it
+//!   is inwards of a parent face the child lies on and behind every oriented sheet around (its
+//!   parent's, the dense voxel's, the dense voxels' around the empty one). The prototype's "every
+//!   slot within one voxel of a dense voxel" wrapped the inner side of a sampled bowl; the
+//!   sheet-angle test of `sheet` kept the wrong-way steps (a filled region is up to a voxel
+//!   thicker than its points) closed and cracked the border; the steps into dense voxels' empty
+//!   children alone left one-quad pits (bunny level 6: 17 boundary loops, 5 with the sheets
+//!   around). Diagonal edges between filled voxels take the parents' decisions; their vertices
 //!   start on the parent face (bilinear) and are mapped as on subdivided levels. Regions start
-//!   past the global limit: [`ReconOptions::region_levels`] levels are wrapped there where some
-//!   region is dense, a level where every voxel is sparse is plain subdivision. Marking regions
-//!   inside the trusted levels too (the prototype) was measured worse: at `tau = 10` the bunny's
-//!   level 5 went from RMS .00228 to .00290 and its level 7 from .00039 to .00169, the dragon's
-//!   level 7 from .00159 to .00201 with 68 boundary loops instead of 23: the rims it subdivides
-//!   are where the coarser topology lies furthest from the points.
+//!   past the global limit: `region_levels` levels are wrapped there where some region is dense,
+//!   and a level where every voxel is sparse is plain subdivision. Marking regions inside the
+//!   trusted levels too (the prototype) was measured worse: at `tau = 10` the bunny's level 5
+//!   went from RMS .00228 to .00290 and its level 7 from .00039 to .00169, the dragon's level 7
+//!   from .00159 to .00201 with 68 boundary loops instead of 23: the rims it subdivides are where
+//!   the coarser topology lies furthest from the points. Past the limit, `tau = 10` finds no
+//!   dense region on the Rabbit or the bunny; `tau = 3` (the default) wraps the bunny's level 6
+//!   (RMS .00093 -> .00090, level 7 .00039 -> .00037, 5 boundary loops) and cuts the dragon's
+//!   level 8 from .00134 (subdivided) to .00036 with 309 loops (1,552 wrapped everywhere); the
+//!   Rabbit gains most at 2.75 (level 6 .00214 -> .00130). Off by default because on the 4.3
+//!   M-point case it would wrap level 9 (see `tools/bench/RESULTS.md`).
 //!
 //! # Coordinates and determinism
 //! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
@@ -210,16 +217,17 @@ pub struct ReconOptions {
     /// oriented-sheet mask keeps such gaps open like real holes (the dragon's level 7: 52
     /// boundary loops, 23 with it). Default true.
     pub fill_gaps: bool,
-    /// The per-region trusted level (module `regions`): before level `j + 1` is built, a
-    /// voxel of level `j` whose 3x3x3 block holds fewer than this many points per occupied child
-    /// is sparse (with its 26 neighbours, and everything below it), and its region is subdivided
-    /// inside the wrapped level (the prototype's 10 is a good start). Default 0: off (measured in
-    /// `tools/bench/RESULTS.md`, regions cost the bunny and the dragon accuracy at their trusted
-    /// levels).
+    /// The per-region trusted level (module `regions`), used past the global density limit when
+    /// [`ReconOptions::region_levels`] is not 0: before level `j + 1` is built, a voxel of level
+    /// `j` whose 3x3x3 block holds fewer than this many points per occupied child is sparse (with
+    /// its 26 neighbours, and everything below it), and its region is subdivided inside the
+    /// wrapped level. Default 3 (the prototype used 10, which on our data wraps nothing past the
+    /// limit; `tools/bench/RESULTS.md` has the measurements).
     pub region_density: f64,
     /// Levels past the global density limit ([`ReconOptions::min_median_points`]) that are still
     /// wrapped where some region is dense enough ([`ReconOptions::region_density`]); deeper
-    /// levels, or a level where every voxel is sparse, are subdivided. Default 0.
+    /// levels, or a level where every voxel is sparse, are subdivided. Default 0 (off): on the
+    /// issue's 4.3 M-point case it would wrap level 9, which costs several times the subdivision.
     pub region_levels: u32,
 }
 
@@ -234,7 +242,7 @@ impl Default for ReconOptions {
             sparse: SparseMode::Subdivide,
             quadric_mapping: true,
             fill_gaps: true,
-            region_density: 0.0,
+            region_density: 3.0,
             region_levels: 0,
             max_faces: 200_000_000,
         }
@@ -468,7 +476,7 @@ pub fn reconstruct_with(
     // Regions ([`regions`]): sparse regions of wrapped levels are subdivided inside them; past
     // the global limit, up to `region_levels` more levels are wrapped while some region is dense.
     let tau = opts.region_density;
-    let regions = opts.sparse == SparseMode::Subdivide && tau.is_finite() && tau > 0.0;
+    let regions = opts.sparse == SparseMode::Subdivide && opts.region_levels > 0 && tau.is_finite() && tau > 0.0;
     if opts.sparse == SparseMode::Wrap {
         trusted = finest;
     }

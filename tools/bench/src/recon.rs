@@ -249,6 +249,40 @@ fn mapping_effect(name: &str, points: &[DVec3], max_level: u32) {
     }
 }
 
+/// Points-to-mesh RMS per level with the per-region trusted level off and on (`region_levels`
+/// levels past the global density limit, several `region_density` values), with the faces and
+/// boundary loops of the finest level.
+fn regions_effect(name: &str, points: &[DVec3], max_level: u32, region_levels: u32) {
+    let diag = Aabb::from_points(points).diagonal();
+    println!();
+    println!(
+        "### Trusted level per region on {name}: points→mesh RMS / diagonal per level (`region_levels` = {region_levels})"
+    );
+    println!();
+    let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
+    println!("| region_density | {} | wrapped to | finest faces | finest loops |", header.join(" | "));
+    println!("|---|{}---|---|---|", "---|".repeat(max_level as usize));
+    for tau in [None, Some(2.75), Some(3.0), Some(4.0), Some(10.0)] {
+        let mut o = opts(max_level, None);
+        if let Some(t) = tau {
+            o.region_density = t;
+            o.region_levels = region_levels;
+        }
+        let r = run(points, &o);
+        let cells: Vec<String> =
+            r.hierarchy.levels.iter().skip(1).map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag)).collect();
+        let finest = r.hierarchy.finest().map(|l| &l.mesh);
+        println!(
+            "| {} | {} | {} | {} | {} |",
+            tau.map_or_else(|| "off (default)".to_owned(), |t| format!("{t}")),
+            cells.join(" | "),
+            r.trusted_level,
+            finest.map_or(0, |m| m.faces.len()),
+            finest.map_or(0, boundary_loops)
+        );
+    }
+}
+
 /// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
 fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let sampler = octowrap_mesh::shapes::SurfaceSampler::new(mesh);
@@ -368,6 +402,15 @@ pub fn report() {
     }
     if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         accuracy("Dragon (dragon_vrip)", p, 7);
+    }
+    if let Some(p) = rabbit.as_ref().filter(|_| !quick) {
+        regions_effect("the Rabbit", p, 6, 2);
+    }
+    if let Some(p) = bunny.as_ref().filter(|_| !quick) {
+        regions_effect("the bunny", p, 7, 2);
+    }
+    if let Some(p) = dragon.as_ref().filter(|_| !quick) {
+        regions_effect("the dragon", p, 8, 1);
     }
     if let Some(p) = bunny.as_ref().filter(|_| !quick) {
         mapping_effect("the bunny", p, 7);
