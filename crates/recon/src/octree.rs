@@ -242,6 +242,11 @@ pub(crate) struct Octree {
     pub points: Vec<Vec3>,
     /// Full-depth Morton codes of [`Octree::points`].
     codes: Vec<u64>,
+    /// Per point, the coarsest level at which it is the first of its voxel (`u8::MAX` for a
+    /// duplicate of the point before it; point 0 starts every voxel, 0): a level's voxels start
+    /// where this is at most the level, so building a level reads a byte per point, not two
+    /// codes.
+    split: Vec<u8>,
     /// `levels[j]`: the occupied voxels of level `j`.
     pub levels: Vec<Cells>,
     /// Number of distinct quantised positions.
@@ -277,6 +282,16 @@ impl Octree {
             .collect();
         let codes: Vec<u64> = pairs.par_iter().map(|p| p.0).collect();
         drop(pairs);
+        // Codes `a < b` lie in one level-`j` voxel while they agree above bit `3 (21 - j)`: the
+        // highest differing bit `h` separates them from level `21 - h / 3` on.
+        let split: Vec<u8> = (0..codes.len())
+            .into_par_iter()
+            .map(|i| match i.checked_sub(1).map(|k| codes[i] ^ codes[k]) {
+                None => 0,
+                Some(0) => u8::MAX,
+                Some(x) => (CODE_BITS - x.ilog2() / 3) as u8,
+            })
+            .collect();
         let n = local.len() as u32;
         let root = Cells {
             level: 0,
@@ -286,13 +301,14 @@ impl Octree {
             index: RankMap::from_sorted(&[0]),
             filled: Vec::new(),
         };
-        Self { frame, points: local, codes, levels: vec![root], distinct }
+        Self { frame, points: local, codes, split, levels: vec![root], distinct }
     }
 
     /// Frees the points and the voxels of every level (the frame stays).
     pub(crate) fn release(&mut self) {
         self.points = Vec::new();
         self.codes = Vec::new();
+        self.split = Vec::new();
         self.levels = Vec::new();
     }
 
@@ -305,13 +321,11 @@ impl Octree {
     pub(crate) fn push_level(&mut self) {
         let level = self.depth() + 1;
         let shift = 3 * (CODE_BITS - level);
-        let codes = &self.codes;
+        let (codes, split) = (&self.codes, &self.split);
         let n = codes.len();
         let mut starts: Vec<u32> = Vec::with_capacity(self.levels[level as usize - 1].len() * 4 + 2);
         starts.push(0);
-        starts.par_extend(
-            (1..n).into_par_iter().filter(|&i| codes[i] >> shift != codes[i - 1] >> shift).map(|i| i as u32),
-        );
+        starts.par_extend((1..n).into_par_iter().filter(|&i| u32::from(split[i]) <= level).map(|i| i as u32));
         starts.push(n as u32);
         let keys: Vec<u64> = starts[..starts.len() - 1].iter().map(|&s| codes[s as usize] >> shift).collect();
         let index = RankMap::from_sorted(&keys);
@@ -323,6 +337,7 @@ impl Octree {
     /// [`Octree::push_level`]; frees the codes.
     pub(crate) fn finish(&mut self, deepest: u32) {
         self.codes = Vec::new();
+        self.split = Vec::new();
         let deepest = (deepest as usize).min(self.levels.len() - 1);
         let pts = &self.points;
         let cells = &self.levels[deepest];
