@@ -204,9 +204,9 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
             (morton::encode(c[0], c[1], c[2]), i as u32)
         })
         .collect();
-    // Corners of this level have up to `level + 1` bits per axis.
-    let bits =
-        (0..total).into_par_iter().map(|i| corner(i).iter().fold(0u32, |a, &b| a | b)).reduce(|| 0, |a, b| a | b);
+    // Corners of this level have up to `level + 1` bits per axis: as many as the doubled parent
+    // corners (an edge or face point's coordinate is at most twice its largest end's).
+    let bits = corners.par_iter().map(|c| c[0] | c[1] | c[2]).reduce(|| 0, |a, b| a | b) << 1;
     crate::octree::sort_codes(&mut order, 3 * (32 - bits.leading_zeros()));
     let rank: Vec<u32> = {
         let rank: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
