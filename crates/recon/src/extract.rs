@@ -74,24 +74,27 @@ pub(crate) fn extract(slots: &[u64], dec: &Decisions<'_>) -> (Extracted, Vec<Bad
             corners(morton::decode(c), d)
         })
         .collect();
+    // The partner slot across every face edge, once (the mutual test below reads the partner's).
+    let partners: Vec<[u64; 4]> = slots.par_iter().map(|&s| std::array::from_fn(|k| dec.partner(s, k).1)).collect();
     // links[f][k]: the face and edge across edge k, as 4 * g + k2, or u32::MAX.
     let links: Vec<[u32; 4]> = (0..slots.len())
         .into_par_iter()
         .map(|f| {
             std::array::from_fn(|k| {
-                let (_, g) = dec.partner(slots[f], k);
+                let g = partners[f][k];
                 let Some(gi) = index.get(g) else { return u32::MAX };
                 let (a, b) = (face_corners[f][k], face_corners[f][(k + 1) % 4]);
                 let gc = &face_corners[gi as usize];
                 let Some(k2) = (0..4).find(|&j| gc[j] == b && gc[(j + 1) % 4] == a) else { return u32::MAX };
                 // Only mutual partners link.
-                if dec.partner(g, k2).1 != slots[f] {
+                if partners[gi as usize][k2] != slots[f] {
                     return u32::MAX;
                 }
                 4 * gi + k2 as u32
             })
         })
         .collect();
+    drop(partners);
     let n = slots.len();
     let mut parent: Vec<u32> = (0..4 * n as u32).collect();
     for f in 0..n {
