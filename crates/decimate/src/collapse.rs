@@ -108,6 +108,69 @@ impl Csr {
         Self { off, items }
     }
 
+    /// [`Csr::build`] of `tris` grouped by the block of their lowest vertex (block `k`'s from
+    /// `start[k]` on), in parallel over the blocks. A triangle's vertices are in its block or a
+    /// later one, so a vertex's row holds the triangles of earlier blocks (few, added first, in
+    /// order) and then those of its own block: the rows come out as [`Csr::build`] makes them.
+    fn build_blocked(n: usize, tris: &[[u32; 3]], start: &[u32], blocks: Blocks) -> Self {
+        let len = blocks.len();
+        let range = |k: usize| start[k] as usize..start[k + 1] as usize;
+        let own = |k: usize, v: u32| blocks.of(v) == k;
+        // Own-block corners counted per block; corners in later blocks listed, in triangle order.
+        let mut off = vec![0u32; n + 1];
+        let foreign: Vec<Vec<(u32, u32)>> = off[1..]
+            .par_chunks_mut(len)
+            .enumerate()
+            .map(|(k, counts)| {
+                let mut foreign = Vec::new();
+                for (t, tri) in tris[range(k)].iter().enumerate() {
+                    for &v in tri {
+                        if own(k, v) {
+                            counts[v as usize - k * len] += 1;
+                        } else {
+                            foreign.push((v, (start[k] as usize + t) as u32));
+                        }
+                    }
+                }
+                foreign
+            })
+            .collect();
+        for &(v, _) in foreign.iter().flatten() {
+            off[v as usize + 1] += 1;
+        }
+        for i in 0..n {
+            off[i + 1] += off[i];
+        }
+        let mut fill = off.clone();
+        let mut items = vec![0u32; off[n] as usize];
+        for &(v, t) in foreign.iter().flatten() {
+            let slot = &mut fill[v as usize];
+            items[*slot as usize] = t;
+            *slot += 1;
+        }
+        let mut rows: Vec<&mut [u32]> = Vec::with_capacity(blocks.count);
+        let mut rest = &mut items[..];
+        for k in 0..n.div_ceil(len) {
+            let (lo, hi) = (off[k * len], off[((k + 1) * len).min(n)]);
+            let (mine, after) = std::mem::take(&mut rest).split_at_mut((hi - lo) as usize);
+            rows.push(mine);
+            rest = after;
+        }
+        fill[..n].par_chunks_mut(len).zip(rows).enumerate().for_each(|(k, (fill, rows))| {
+            let base = off[k * len];
+            for (t, tri) in tris[range(k)].iter().enumerate() {
+                for &v in tri {
+                    if own(k, v) {
+                        let slot = &mut fill[v as usize - k * len];
+                        rows[(*slot - base) as usize] = (start[k] as usize + t) as u32;
+                        *slot += 1;
+                    }
+                }
+            }
+        });
+        Self { off, items }
+    }
+
     pub(crate) fn of(&self, v: u32) -> &[u32] {
         &self.items[self.off[v as usize] as usize..self.off[v as usize + 1] as usize]
     }
@@ -364,25 +427,52 @@ impl Blocks {
     }
 }
 
-/// The live triangles of `tris`, ordered by the block of their lowest vertex (stably), and where
-/// each block's triangles start (one entry more than blocks).
-fn bucket(tris: &[[u32; 3]], blocks: Blocks) -> (Vec<[u32; 3]>, Vec<u32>) {
+/// The live triangles of `tris`, ordered by the block of their lowest vertex (stably), where each
+/// block's triangles start (one entry more than blocks), and the vertex -> triangle adjacency of
+/// the result. `sources` cuts `tris` into consecutive ranges (where each starts, and the end),
+/// which are sorted in parallel; the result is that of a sequential stable counting sort and of
+/// [`Csr::build`].
+fn rebuild(tris: &[[u32; 3]], sources: &[u32], blocks: Blocks, n: usize) -> (Vec<[u32; 3]>, Vec<u32>, Csr) {
+    let k = blocks.count;
     let home = |t: &[u32; 3]| blocks.of(t[0].min(t[1]).min(t[2]));
-    let mut start = vec![0u32; blocks.count + 1];
-    for t in tris.iter().filter(|t| t[0] != DEAD) {
-        start[home(t) + 1] += 1;
+    let ranges: Vec<&[[u32; 3]]> = sources.windows(2).map(|w| &tris[w[0] as usize..w[1] as usize]).collect();
+    let counts: Vec<Vec<u32>> = ranges
+        .par_iter()
+        .map(|r| {
+            let mut c = vec![0u32; k];
+            for t in r.iter().filter(|t| t[0] != DEAD) {
+                c[home(t)] += 1;
+            }
+            c
+        })
+        .collect();
+    // The output by block, then by source range: each range's share of each block is one slice.
+    let total: usize = counts.iter().flatten().map(|&c| c as usize).sum();
+    let mut out = vec![[0u32; 3]; total];
+    let mut start = Vec::with_capacity(k + 1);
+    let mut slots: Vec<Vec<&mut [[u32; 3]]>> = ranges.iter().map(|_| Vec::with_capacity(k)).collect();
+    let mut rest = &mut out[..];
+    let mut at = 0u32;
+    for h in 0..k {
+        start.push(at);
+        for (s, c) in counts.iter().enumerate() {
+            let (mine, after) = std::mem::take(&mut rest).split_at_mut(c[h] as usize);
+            slots[s].push(mine);
+            rest = after;
+            at += c[h];
+        }
     }
-    for k in 0..blocks.count {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut out = vec![[0u32; 3]; start[blocks.count] as usize];
-    for t in tris.iter().filter(|t| t[0] != DEAD) {
-        let slot = &mut fill[home(t)];
-        out[*slot as usize] = *t;
-        *slot += 1;
-    }
-    (out, start)
+    start.push(at);
+    ranges.into_par_iter().zip(slots).for_each(|(r, mut dst)| {
+        let mut fill = vec![0usize; k];
+        for t in r.iter().filter(|t| t[0] != DEAD) {
+            let h = home(t);
+            dst[h][fill[h]] = *t;
+            fill[h] += 1;
+        }
+    });
+    let adj = Csr::build_blocked(n, &out, &start, blocks);
+    (out, start, adj)
 }
 
 /// Whether every triangle at each vertex lies within the vertex's block.
@@ -677,8 +767,9 @@ pub(crate) fn run(
 ) -> Outcome {
     let n = pos.len();
     let blocks = Blocks::new(n);
-    let (mut tris, mut tstart) = bucket(tris, blocks);
-    let mut adj = Csr::build(n, &tris);
+    // The input in as many ranges as blocks, sorted in parallel.
+    let sources: Vec<u32> = (0..=blocks.count).map(|k| (tris.len() * k / blocks.count) as u32).collect();
+    let (mut tris, mut tstart, mut adj) = rebuild(tris, &sources, blocks, n);
     let (mut kind, mut quadrics) = kinds_and_quadrics(&pos, &tris, &adj, lock_border);
     let frozen = kind.iter().filter(|&&k| k == Kind::Frozen).count();
     for (k, _) in kind.iter_mut().zip(keep).filter(|(_, keep)| **keep) {
@@ -765,12 +856,11 @@ pub(crate) fn run(
         }
         stamp = whole.stamp;
         collapses += applied;
-        (tris, tstart) = bucket(&tris, blocks);
+        (tris, tstart, adj) = rebuild(&tris, &tstart, blocks, n);
         progress(tris.len());
         if applied == 0 {
             break if over_bound { Stop::ErrorBound } else { Stop::NoValidCollapse };
         }
-        adj = Csr::build(n, &tris);
     };
     resolve(&mut rep);
     Outcome { tris, pos, max_cost: reached, rep, collapses, passes, frozen, stop }
@@ -906,6 +996,40 @@ fn candidate<S: Store + ?Sized>(s: &S, kind: &[Kind], i: u32, j: u32, boundary: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parallel_regrouping_and_adjacency_match_the_sequential_ones() {
+        // A 100 x 100 grid with scattered vertex numbers (so that many triangles span blocks),
+        // some triangles dead, cut into uneven source ranges.
+        let side = 100u32;
+        let n = (side * side) as usize;
+        let scatter = |v: u32| (v * 7919) % (side * side);
+        let mut tris = Vec::new();
+        for y in 0..side - 1 {
+            for x in 0..side - 1 {
+                let v = y * side + x;
+                tris.push([v, v + 1, v + side + 1].map(scatter));
+                tris.push([v, v + side + 1, v + side].map(scatter));
+            }
+        }
+        for t in tris.iter_mut().step_by(7) {
+            *t = [DEAD; 3];
+        }
+        let blocks = Blocks::new(n);
+        assert!(blocks.count >= 3);
+        let sources = [0, 5, 4000, 4001, tris.len() as u32];
+        let (out, start, adj) = rebuild(&tris, &sources, blocks, n);
+        let mut want: Vec<[u32; 3]> = tris.iter().copied().filter(|t| t[0] != DEAD).collect();
+        want.sort_by_key(|t| blocks.of(t[0].min(t[1]).min(t[2])));
+        assert_eq!(out, want);
+        for k in 0..blocks.count {
+            let range = &out[start[k] as usize..start[k + 1] as usize];
+            assert!(range.iter().all(|t| blocks.of(t[0].min(t[1]).min(t[2])) == k));
+        }
+        assert_eq!(start[blocks.count] as usize, out.len());
+        let seq = Csr::build(n, &out);
+        assert_eq!((adj.off, adj.items), (seq.off, seq.items));
+    }
 
     #[test]
     fn kinds_of_a_fan_a_strip_and_a_bowtie() {
