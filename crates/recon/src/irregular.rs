@@ -30,6 +30,7 @@ use rayon::prelude::*;
 use crate::keymap::KeyMap;
 use crate::lattice::{EdgeCase, edge_case, edge_side, pair_key, partner, unslot};
 use crate::octree::Cells;
+use crate::rankmap::RankMap;
 use crate::sheet::Mask;
 
 /// The diagonal-case decisions of one level.
@@ -113,21 +114,21 @@ pub(crate) fn close(
     mask: &Mask,
     dec: &Decisions<'_>,
 ) -> (Vec<u64>, Vec<FaceOrigin>, usize) {
-    let mut set = KeyMap::with_capacity(initial.len() + initial.len() / 4);
-    for (k, _) in &initial {
-        set.insert(*k, 0);
-    }
+    // The faces so far: the initial ones (sorted: a fixed index, built in parallel) and the
+    // created ones (a set that grows, far smaller).
+    let keys: Vec<u64> = initial.iter().map(|e| e.0).collect();
+    let start = RankMap::from_sorted(&keys);
+    let mut set = KeyMap::with_capacity(initial.len() / 4);
     let missing = |faces: &[u64], set: &KeyMap| -> Vec<u64> {
         let mut m: Vec<u64> = faces
             .par_iter()
             .flat_map_iter(|&f| (0..4).map(move |k| dec.partner(f, k).1))
-            .filter(|&g| !set.contains(g) && allowed(cells, mask, g))
+            .filter(|&g| !start.contains(g) && !set.contains(g) && allowed(cells, mask, g))
             .collect();
         m.par_sort_unstable();
         m.dedup();
         m
     };
-    let keys: Vec<u64> = initial.iter().map(|e| e.0).collect();
     let mut created: Vec<u64> = Vec::new();
     let mut frontier = missing(&keys, &set);
     while !frontier.is_empty() {

@@ -429,7 +429,7 @@ pub fn reconstruct_with(
     if points.is_empty() {
         return Err(ReconError::Empty);
     }
-    let bad = points.iter().filter(|p| !p.is_finite()).count();
+    let bad = points.par_iter().filter(|p| !p.is_finite()).count();
     if bad > 0 {
         return Err(ReconError::NonFinite { count: bad, total: points.len() });
     }
