@@ -112,11 +112,14 @@
 //!   went from RMS .00228 to .00290 and its level 7 from .00039 to .00169, the dragon's level 7
 //!   from .00159 to .00201 with 68 boundary loops instead of 23: the rims it subdivides are where
 //!   the coarser topology lies furthest from the points. Past the limit, `tau = 10` finds no
-//!   dense region on the Rabbit or the bunny; `tau = 3` (the default) wraps the bunny's level 6
-//!   (RMS .00093 -> .00090, level 7 .00039 -> .00037, 5 boundary loops) and cuts the dragon's
-//!   level 8 from .00134 (subdivided) to .00036 with 309 loops (1,552 wrapped everywhere); the
-//!   Rabbit gains most at 2.75 (level 6 .00214 -> .00137). Off by default because on the 4.3
-//!   M-point case it would wrap level 9 (see `tools/bench/RESULTS.md`).
+//!   dense region on the Rabbit or the bunny; `tau = 4` (the default) cuts the dragon's level 8
+//!   from .00134 (subdivided) to .00039 with 69 boundary loops (1,552 wrapped everywhere) but
+//!   finds nothing dense on the Rabbit or the bunny; `tau = 3` wraps the bunny's level 6 (RMS
+//!   .00093 -> .00090, level 7 .00039 -> .00037, 5 loops) but leaves the dragon's level 8 with 309
+//!   loops; the Rabbit gains most at 2.75 (level 6 .00214 -> .00137). Below about 5 points per
+//!   child a region that counts as dense can break into sampling holes (a sphere sampled thinly
+//!   on one half: 3 loops at 3-4, none at 5). Off by default because on the 4.3 M-point case it
+//!   would wrap levels 9-10 (see `tools/bench/RESULTS.md`).
 //!
 //! # Coordinates and determinism
 //! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
@@ -160,7 +163,8 @@ pub const DEEPEST_LEVEL: u32 = MAX_LEVEL;
 pub enum MaxLevel {
     /// Stop at the deepest level the sampling density supports (§4.2): the last level whose median
     /// number of points per occupied voxel is at least [`ReconOptions::min_median_points`]
-    /// (at least level 1, at most [`AUTO_CAP`]).
+    /// (at least level 1, at most [`AUTO_CAP`]); with [`ReconOptions::region_levels`], up to that
+    /// many levels deeper while some region is dense enough ([`ReconOptions::region_density`]).
     Auto,
     /// Build exactly this many levels below the root (`1..=`[`DEEPEST_LEVEL`]); levels beyond the
     /// density limit follow [`ReconOptions::sparse`].
@@ -221,8 +225,9 @@ pub struct ReconOptions {
     /// [`ReconOptions::region_levels`] is not 0: before level `j + 1` is built, a voxel of level
     /// `j` whose 3x3x3 block holds fewer than this many points per occupied child is sparse (with
     /// its 26 neighbours, and everything below it), and its region is subdivided inside the
-    /// wrapped level. Default 3 (the prototype used 10, which on our data wraps nothing past the
-    /// limit; `tools/bench/RESULTS.md` has the measurements).
+    /// wrapped level. Default 4 (the prototype used 10, which on our data wraps nothing past the
+    /// limit; at 3 the dragon's level 8 breaks into 309 boundary loops, 69 at 4;
+    /// `tools/bench/RESULTS.md` has the measurements).
     pub region_density: f64,
     /// Levels past the global density limit ([`ReconOptions::min_median_points`]) that are still
     /// wrapped where some region is dense enough ([`ReconOptions::region_density`]); deeper
@@ -242,7 +247,7 @@ impl Default for ReconOptions {
             sparse: SparseMode::Subdivide,
             quadric_mapping: true,
             fill_gaps: true,
-            region_density: 3.0,
+            region_density: 4.0,
             region_levels: 0,
             max_faces: 200_000_000,
         }

@@ -217,3 +217,26 @@ fn sparse_regions_keep_an_open_bowl_open() {
         assert_eq!((t.boundary_loops, t.components), (1, 1), "level {j}");
     }
 }
+
+#[test]
+fn auto_goes_as_deep_as_dense_regions_are_wrapped() {
+    let pts = half_sparse_sphere();
+    let plain = octowrap_recon::reconstruct_with(&pts, &ReconOptions::default(), &mut |_| {}).expect("reconstructs");
+    let mut o = ReconOptions::default();
+    o.region_levels = 2;
+    // At 3 points per child the thin half counts as dense at level 5 and breaks into holes.
+    o.region_density = 10.0;
+    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let finest = r.hierarchy.levels.len() as u32 - 1;
+    eprintln!("auto: {} levels without regions, {finest} with", plain.hierarchy.levels.len() - 1);
+    assert_eq!(r.trusted_level, finest);
+    assert!(finest > plain.trusted_level && finest <= plain.trusted_level + 2);
+    // The levels past the global limit are mixed: wrapped, with sparse regions filled.
+    let last = &r.levels[finest as usize];
+    assert!(last.kind == octowrap_recon::LevelKind::Wrapped && last.sparse_voxels > 0);
+    r.hierarchy.check_links().expect("links");
+    for (j, l) in r.hierarchy.levels.iter().enumerate().skip(1) {
+        let t = check_manifold(&l.mesh).unwrap_or_else(|e| panic!("level {j}: {e}"));
+        assert_eq!((t.boundary_edges, t.components, t.euler), (0, 1, 2), "level {j}");
+    }
+}

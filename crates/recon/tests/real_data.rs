@@ -145,6 +145,7 @@ fn regions_past_the_density_limit_keep_the_promises() {
         let mut o = ReconOptions::default();
         o.max_level = MaxLevel::Level(7);
         o.region_levels = 2;
+        o.region_density = 3.0;
         let r = reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
         assert_eq!(r.trusted_level, 6);
         assert!(r.levels[6].sparse_voxels > 0 && r.levels[6].kind == octowrap_recon::LevelKind::Wrapped);
