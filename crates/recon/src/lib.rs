@@ -696,7 +696,7 @@ pub fn reconstruct_with(
             let cells = &tree.levels[j as usize];
             let face_cells: Vec<u32> = next
                 .slots
-                .iter()
+                .par_iter()
                 .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
                 .collect();
             let coarse = &tree.levels[j as usize - 1];

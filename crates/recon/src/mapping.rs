@@ -105,7 +105,7 @@ pub(crate) fn map_wrapped(
     let n = positions.len();
     // Vertex -> voxels of its fan, as a sorted list of pairs.
     let mut pairs: Vec<(u32, u32)> =
-        quads.iter().zip(face_cells).flat_map(|(q, &c)| q.iter().map(move |&v| (v, c))).collect();
+        quads.par_iter().zip(face_cells).flat_map_iter(|(q, &c)| q.iter().map(move |&v| (v, c))).collect();
     pairs.par_sort_unstable();
     pairs.dedup();
     let mut first = vec![0u32; n + 1];
