@@ -1,7 +1,7 @@
 //! The level decoder: spec §4-§6 read in order. Works on plain arrays; every count is checked
 //! against the level-table entry (itself checked against [`crate::Limits`]) before allocating.
 
-use crate::bytes::{Reader, unzigzag};
+use crate::bytes::{Planes, Reader, unzigzag};
 use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::fast;
@@ -669,26 +669,11 @@ fn finish(
     }
     let g = &mut st[s::GEOMETRY];
     if grid.exact {
-        let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
-        out.exact = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
-        if let Some(v) = out.exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-            return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
-        }
+        out.exact = exact_positions(g, nv)?;
     } else {
         // §6.1 / §6.6: with lines, a bitmap of line vertices, their parameters, and the other
         // vertices' residuals, each list in coding order (pass A, then pass B).
-        let mut flags: &[u8] = &[];
-        let mut line_count = 0usize;
-        if lines {
-            flags = g.bytes(nv.div_ceil(8))?;
-            if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
-                return Err(g.invalid("unused line flag bits are not zero"));
-            }
-            line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
-        }
-        let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
-        let rest = nv - line_count;
-        let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
+        let GridStreams { flags, params, planes } = grid_streams(g, nv, lines)?;
         let mut q = vec![[0i64; 3]; nv];
         let pp = parent.map(PlainLevel::as_parent);
         let topo = Topo {
@@ -768,24 +753,9 @@ fn finish_fast(
     let nv = out.corners.as_ref().map_or(0, Vec::len);
     let g = &mut st[s::GEOMETRY];
     if grid.exact {
-        let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
-        out.exact = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
-        if let Some(v) = out.exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-            return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
-        }
+        out.exact = exact_positions(g, nv)?;
     } else {
-        let mut flags: &[u8] = &[];
-        let mut line_count = 0usize;
-        if lines {
-            flags = g.bytes(nv.div_ceil(8))?;
-            if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
-                return Err(g.invalid("unused line flag bits are not zero"));
-            }
-            line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
-        }
-        let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
-        let rest = nv - line_count;
-        let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
+        let GridStreams { flags, params, planes } = grid_streams(g, nv, lines)?;
         let FastGeometryScratch { contexts, dirs, values } = scratch;
         // (`contexts` were found by `fast::resolve`.)
         // The stream's values, assembled from their byte planes once (in bulk, not per vertex).
@@ -955,6 +925,45 @@ fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u3
         std::mem::swap(items, tmp);
         shift += 11;
     }
+}
+
+/// The exact geometry of a level (spec §6.1): three planes of `f64` bit patterns, every
+/// coordinate finite.
+fn exact_positions(g: &mut Reader<'_>, nv: usize) -> Result<Vec<[f64; 3]>, Error> {
+    let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
+    let exact: Vec<[f64; 3]> = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
+    if let Some(v) = exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+        return Err(g.invalid(format!("vertex {v} has a non-finite coordinate")));
+    }
+    Ok(exact)
+}
+
+/// The parts of a grid level's geometry stream (spec §6.1, §6.6, §6.8), in stream order.
+struct GridStreams<'a> {
+    /// With `LINES`: one bit per vertex, set for line vertices (empty without).
+    flags: &'a [u8],
+    /// With `LINES`: the line vertices' parameters.
+    params: Option<Planes<'a>>,
+    /// The other vertices' three residuals.
+    planes: [Planes<'a>; 3],
+}
+
+/// Reads the layout of a grid level's geometry stream: with lines, the bitmap of line vertices
+/// (unused bits zero) and their parameters, then the residual planes of the others.
+fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<GridStreams<'a>, Error> {
+    let mut flags: &[u8] = &[];
+    let mut line_count = 0usize;
+    if lines {
+        flags = g.bytes(nv.div_ceil(8))?;
+        if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
+            return Err(g.invalid("unused line flag bits are not zero"));
+        }
+        line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
+    }
+    let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
+    let rest = nv - line_count;
+    let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
+    Ok(GridStreams { flags, params, planes })
 }
 
 #[cfg(test)]

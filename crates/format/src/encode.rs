@@ -517,22 +517,7 @@ fn geometry(
         order.push(v as u32);
         Ok((t, None))
     });
-    if lines {
-        g.extend(&flags);
-        put_planes(&mut g, &params);
-    } else {
-        // Back to vertex order.
-        for r in &mut res {
-            let mut by_vertex = vec![0u64; nv];
-            for (i, &v) in order.iter().enumerate() {
-                by_vertex[v as usize] = r[i];
-            }
-            *r = by_vertex;
-        }
-    }
-    for r in &res {
-        put_planes(&mut g, r);
-    }
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
     (g, js)
 }
 
@@ -584,9 +569,18 @@ fn fast_geometry(
         Ok(t)
     });
     let mut g = Vec::new();
-    if lines {
-        g.extend(&flags);
-        put_planes(&mut g, &params);
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
+    (g, js)
+}
+
+/// Writes the layout of a grid level's geometry stream (spec §6.1, §6.6, §6.8): with lines, the
+/// bitmap of line vertices and their parameters, then the other vertices' residuals in coding
+/// order; without, the residuals of every vertex, put back in vertex order (`order` lists the
+/// vertices in coding order).
+fn put_grid_streams(g: &mut Vec<u8>, lines: Option<(&[u8], &[u64])>, mut res: [Vec<u64>; 3], order: &[u32], nv: usize) {
+    if let Some((flags, params)) = lines {
+        g.extend(flags);
+        put_planes(g, params);
     } else {
         for r in &mut res {
             let mut by_vertex = vec![0u64; nv];
@@ -597,9 +591,8 @@ fn fast_geometry(
         }
     }
     for r in &res {
-        put_planes(&mut g, r);
+        put_planes(g, r);
     }
-    (g, js)
 }
 
 /// Mode 3's vertex numbering (spec §5.9): vertices by first use in corner order, the split keys,
