@@ -493,6 +493,9 @@ const PREFETCH: usize = 8;
 /// A triangle removed during a pass (in its first corner; vertex numbers stay below `u32::MAX`).
 const DEAD: u32 = u32::MAX;
 
+/// A candidate's sort key: (error bits, kept, removed).
+type Key = (u64, u32, u32);
+
 /// Sort key of a candidate over the error bound.
 const OVER: u64 = u64::MAX;
 
@@ -668,14 +671,28 @@ impl Part<'_> {
         late: &mut Vec<(u64, u32, u32)>,
     ) -> (usize, usize, f64) {
         let inside = inside(blocks, adj, self.tris);
-        let mut lists = vec![Vec::new(); blocks.count];
-        for e in order {
-            if inside[e.1 as usize] && inside[e.2 as usize] {
-                lists[blocks.of(e.1)].push(e);
-            } else {
-                late.push(e);
-            }
-        }
+        // Each list is sorted before use, so the order the lists are filled in does not matter.
+        let empty = || -> (Vec<Vec<Key>>, Vec<Key>) { (vec![Vec::new(); blocks.count], Vec::new()) };
+        let (lists, across) = order
+            .par_iter()
+            .with_min_len(1 << 14)
+            .fold(empty, |(mut lists, mut across), &e| {
+                if inside[e.1 as usize] && inside[e.2 as usize] {
+                    lists[blocks.of(e.1)].push(e);
+                } else {
+                    across.push(e);
+                }
+                (lists, across)
+            })
+            .reduce(empty, |(mut lists, mut across), (more, rest)| {
+                for (l, m) in lists.iter_mut().zip(more) {
+                    l.extend(m);
+                }
+                across.extend(rest);
+                (lists, across)
+            });
+        drop(order);
+        late.extend(across);
         let len = blocks.len();
         let mut parts = Vec::with_capacity(blocks.count);
         let mut tris = &mut *self.tris;
