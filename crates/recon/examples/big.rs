@@ -77,10 +77,11 @@ fn main() {
     for l in &r.levels {
         let t = &l.timings;
         println!(
-            "{:2} {:?} {:8} part {:.3} reg {:.3} irr {:.3} map {:.3} relax {:.3} total {:.3}",
+            "{:2} {:?} {:8} voxels {:8} part {:.3} reg {:.3} irr {:.3} map {:.3} relax {:.3} total {:.3}",
             l.level,
             l.kind,
             l.faces,
+            l.voxels,
             t.partitioning.as_secs_f64(),
             t.regular.as_secs_f64(),
             t.irregular.as_secs_f64(),

@@ -3,15 +3,15 @@
 //!
 //! Every stage asks "is this neighbour occupied, and which voxel is it?" dozens of times per
 //! voxel, face or vertex. A hash map entry per key ([`crate::keymap::KeyMap`], 12 bytes a slot
-//! at load 1/2 or less: 48 MB for the 1.5 M voxels of the 4.3 M-point case's level 9) spreads
+//! at load 1/2 or less: 12 MB for the 369 K voxels of the 4.3 M-point case's level 9) spreads
 //! the keys of neighbouring voxels over the whole table, so nearly every look-up is a cache miss.
 //! Here the keys are grouped by `key >> 6`: for Morton codes that is a 4x4x4 block of voxels
-//! (for slot keys, a 2x2x2 block with its sides), and a surface crossing a block occupies about
-//! 16 of its 64 codes. Each occupied block is one hash entry holding its 64-bit occupancy mask
-//! and the rank of its first key; a key's rank is that base plus the number of occupied codes
-//! below it in the mask. The table is about 3 bytes per key on surface data (at most 48 bytes per
-//! key when no two keys share a block), small enough to stay in cache, and the 26 neighbours of a
-//! voxel mostly fall in the blocks already loaded.
+//! (for slot keys, a 2x2x2 block with its sides), of which a surface crossing the block occupies
+//! many. Each occupied block is one hash entry holding its 64-bit occupancy mask and the rank of
+//! its first key; a key's rank is that base plus the number of occupied codes below it in the
+//! mask. The table is a few bytes per key on surface data (at most 48 bytes per key when no two
+//! keys share a block), small enough to stay in cache, and the 26 neighbours of a voxel mostly
+//! fall in the blocks already loaded.
 //!
 //! Only ever used for look-ups of a fixed, sorted key set: nothing iterates over the table, so no
 //! hash order can reach the output.
