@@ -69,3 +69,42 @@ fn bad_input_and_bad_output_fail_with_exit_code_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("cannot hold a mesh"), "{}", text(&out.stderr));
 }
+
+#[test]
+fn region_levels_refine_dense_regions_past_the_limit_and_stay_manifold() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.ply");
+    let regions = dir.path().join("regions.ply");
+    let input = kitten();
+    let run = |p: &std::path::Path, extra: &[&str]| {
+        let mut a = vec!["reconstruct", input.to_str().unwrap(), "-o", p.to_str().unwrap(), "--timings"];
+        a.extend_from_slice(extra);
+        let out = octowrap(&a);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stderr)
+    };
+    let plain_table = run(&plain, &[]);
+    let region_table = run(&regions, &["--region-levels", "2", "--region-density", "2"]);
+    // The kitten's topology is trusted to level 4; with regions, level 5 is wrapped where dense.
+    assert!(plain_table.contains("trusted to level 4"), "{plain_table}");
+    assert!(region_table.contains("trusted to level 5"), "{region_table}");
+    let read = |p: &std::path::Path| octowrap_io::read_path(p, &octowrap_io::ReadOptions::default()).unwrap();
+    let (a, b) = (read(&plain), read(&regions));
+    assert!(b.faces.all_quads() && b.faces.len() > a.faces.len(), "{} vs {}", b.faces.len(), a.faces.len());
+    let check = octowrap(&["validate", regions.to_str().unwrap(), "--require", "manifold,oriented"]);
+    assert_eq!(check.status.code(), Some(0), "{}", text(&check.stderr));
+
+    for bad in ["0", "nan", "-1", "many"] {
+        let out = octowrap(&[
+            "reconstruct",
+            kitten().to_str().unwrap(),
+            "-o",
+            regions.to_str().unwrap(),
+            "--region-levels",
+            "1",
+            &format!("--region-density={bad}"),
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {}", text(&out.stderr));
+        assert!(text(&out.stderr).contains("region-density"), "{bad}: {}", text(&out.stderr));
+    }
+}

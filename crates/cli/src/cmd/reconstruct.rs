@@ -22,6 +22,10 @@ use crate::progress;
 /// By default the finest level is the deepest the sampling density supports (--max-level auto):
 /// the last level where the median cell holds at least 8 points. Asking for a deeper --level
 /// subdivides the last supported level and maps the new vertices onto the points.
+/// --region-levels N goes up to N levels past that limit where some region is still dense: the
+/// dense regions are wrapped, the sparse ones subdivided inside the same mesh (crack-free), so
+/// unevenly sampled scans get finer where their points allow (slower: the wrapped levels cost
+/// several times a subdivided one).
 ///
 /// Output: PLY or OBJ (or OFF, STL) get one level, the finest or --level K; an .mrq file gets the
 /// whole hierarchy with its parent links. For .mrq output the vertices first slide along their
@@ -37,6 +41,7 @@ use crate::progress;
 ///   octowrap reconstruct scan.laz -o scan.mrq --max-level auto
 ///   octowrap reconstruct kitten.xyz -o kitten.obj --relax-passes 0 --all-levels kitten-levels/
 ///   octowrap reconstruct cloud.ply -o cloud.ply --threads 1
+///   octowrap reconstruct rabbit.ply -o rabbit.ply --region-levels 2 --region-density 2.75
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -68,6 +73,14 @@ pub struct Args {
     /// Wrap levels past the density limit instead of subdividing (they fragment where sparse).
     #[arg(long)]
     pub wrap_sparse: bool,
+    /// Levels past the density limit wrapped where some region is dense, the sparse regions
+    /// subdivided inside the same mesh (0: off).
+    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().region_levels, conflicts_with = "wrap_sparse")]
+    pub region_levels: u32,
+    /// With --region-levels: a cell is sparse when its 3x3x3 block holds fewer than this many
+    /// points per occupied child cell.
+    #[arg(long, value_name = "TAU", default_value_t = ReconOptions::default().region_density, value_parser = parse_density)]
+    pub region_density: f64,
     /// Worker threads (default: all cores). The output is the same for any number.
     #[arg(long, short = 'j', value_name = "N")]
     pub threads: Option<usize>,
@@ -87,6 +100,14 @@ pub struct Args {
     /// step) instead of placing vertices on their prediction lines.
     #[arg(long)]
     pub keep_positions: bool,
+}
+
+fn parse_density(s: &str) -> anyhow::Result<f64> {
+    let tau: f64 = s.parse().with_context(|| format!("'{s}' is not a number"))?;
+    if !(tau.is_finite() && tau > 0.0) {
+        bail!("the region density must be a positive number of points per cell, not {s}");
+    }
+    Ok(tau)
 }
 
 fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
@@ -114,6 +135,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.relax_passes = args.relax_passes;
     opts.relax_from_level = args.relax_from_level;
     opts.min_median_points = args.min_points;
+    opts.region_levels = args.region_levels;
+    opts.region_density = args.region_density;
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
     }
