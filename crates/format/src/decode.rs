@@ -13,7 +13,7 @@ use crate::level::{
 };
 
 /// `rotated(r, i)` (spec §5.2) for every rotation byte `r < 8` and corner `i < 4`.
-const ROTATIONS: [[u8; 4]; 8] = {
+pub(crate) const ROTATIONS: [[u8; 4]; 8] = {
     let mut t = [[0u8; 4]; 8];
     let mut r = 0;
     while r < 8 {

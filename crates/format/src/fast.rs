@@ -22,6 +22,7 @@
 //! disagree on a prediction.
 
 use crate::bytes::Reader;
+use crate::decode::ROTATIONS;
 use crate::error::Error;
 use crate::lattice::{self, CornerKeys};
 use crate::level::{GRID_LIMIT, NO_PARENT, NO_POS, NONE};
@@ -41,22 +42,6 @@ const WEIGHTS: [[i64; 4]; 9] = {
         let (a, b) = ((i / 3) as i64, (i % 3) as i64);
         t[i] = [(2 - a) * (2 - b), a * (2 - b), a * b, (2 - a) * b];
         i += 1;
-    }
-    t
-};
-
-/// `rotated(r, i)` of spec §5.2 for every rotation byte `r < 8` and corner `i < 4`.
-const ROTATED: [[u8; 4]; 8] = {
-    let mut t = [[0u8; 4]; 8];
-    let mut r = 0;
-    while r < 8 {
-        let mut i = 0;
-        while i < 4 {
-            let turn = r & 3;
-            t[r][i] = (if r & 4 == 0 { (turn + i) % 4 } else { (turn + 4 - i) % 4 }) as u8;
-            i += 1;
-        }
-        r += 1;
     }
     t
 };
@@ -201,7 +186,7 @@ pub fn contexts(
             let f = c / 4;
             let pf = parents[f];
             debug_assert_ne!(pf, NO_PARENT);
-            let corner = ROTATED[usize::from(parent_rotations[pf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
+            let corner = ROTATIONS[usize::from(parent_rotations[pf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
             let (du, dw) = OFFSETS[usize::from(corner)];
             let (eu, ew) = OFFSETS[usize::from(s & 3)];
             out.face[v] = pf;
@@ -610,7 +595,7 @@ pub fn resolve(
             let f = c / 4;
             fpf = parents[f];
             if fpf != NO_PARENT {
-                let t = ROTATED[usize::from(parent_quads[fpf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
+                let t = ROTATIONS[usize::from(parent_quads[fpf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
                 (fu, fw) = OFFSETS[usize::from(t)];
             }
         }
