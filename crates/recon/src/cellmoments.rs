@@ -103,26 +103,62 @@ impl ChildMoments {
         Self { level, mask, first, children, parents: whole }
     }
 
-    /// Adds to `m` the moments of parent voxel `parent` (its index in the parents' cells, at
-    /// coordinates `coords` of the parents' level), relative to `x`.
+    /// The index of child voxel `child` (coordinates at the children's level) of parent voxel
+    /// `parent` (its index in the parents' cells), if that child is occupied.
     #[inline]
-    pub(crate) fn add_parent(&self, parent: usize, coords: [u32; 3], x: DVec3, m: &mut Moments) {
-        self.parents[parent].add_to(coords, 2.0 * crate::octree::voxel_size(self.level), x, m);
-    }
-
-    /// Adds to `m` the moments of the child voxel `child` (coordinates at the children's level)
-    /// of parent voxel `parent` (its index in the parents' cells), relative to `x`; `false` if
-    /// that child is empty.
-    #[inline]
-    pub(crate) fn add(&self, parent: usize, child: [u32; 3], x: DVec3, m: &mut Moments) -> bool {
+    pub(crate) fn child(&self, parent: usize, child: [u32; 3]) -> Option<usize> {
         let octant = (child[0] & 1 | (child[1] & 1) << 1 | (child[2] & 1) << 2) as usize;
         let mask = self.mask[parent];
-        if mask & (1 << octant) == 0 {
-            return false;
+        (mask & (1 << octant) != 0)
+            .then(|| self.first[parent] as usize + (mask & ((1u8 << octant) - 1)).count_ones() as usize)
+    }
+
+    /// The number of points of child `i` (from [`ChildMoments::child`]).
+    #[inline]
+    pub(crate) fn count(&self, i: usize) -> u32 {
+        self.children[i].count
+    }
+
+    /// Adds to `m` the moments of child `i` (from [`ChildMoments::child`]) at coordinates
+    /// `coords`, relative to `x`, all in units of the children's edge (see [`Units`]).
+    #[inline]
+    pub(crate) fn add_child(&self, i: usize, coords: [u32; 3], x: DVec3, m: &mut Moments) {
+        self.children[i].add_to(coords, x, m);
+    }
+
+    /// Adds to `m` the moments of parent voxel `parent` (its index in the parents' cells, at
+    /// coordinates `coords` of the parents' level), relative to `x`, all in units of the parents'
+    /// edge (see [`Units`]).
+    #[inline]
+    pub(crate) fn add_parent(&self, parent: usize, coords: [u32; 3], x: DVec3, m: &mut Moments) {
+        self.parents[parent].add_to(coords, x, m);
+    }
+}
+
+/// Moments summed in units of a voxel edge `e` (a power of two), then scaled back.
+///
+/// Scaling by a power of two is exact and commutes with rounding (no value here comes near the
+/// subnormals), so `corner + mean e - x` summed in units of `e` and scaled is the same number as
+/// summed in local units, and so are the products and sums of the moments: the same bits, with
+/// the scaling done once per vertex instead of once per voxel.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Units(pub f64);
+
+impl Units {
+    /// `x` in these units.
+    #[inline]
+    pub(crate) fn of(self, x: DVec3) -> DVec3 {
+        x / self.0
+    }
+
+    /// Moments summed in these units, in local units.
+    #[inline]
+    pub(crate) fn scale(self, m: &mut Moments) {
+        let e = self.0;
+        m.sum *= e;
+        for o in &mut m.outer {
+            *o = *o * e * e;
         }
-        let c = &self.children[self.first[parent] as usize + (mask & ((1u8 << octant) - 1)).count_ones() as usize];
-        c.add_to(child, crate::octree::voxel_size(self.level), x, m);
-        true
     }
 }
 
@@ -141,15 +177,15 @@ impl Child {
         }
     }
 
-    /// Adds these moments, of the voxel at `coords` with edge `edge`, to `m`, relative to `x`
-    /// (the parallel axis theorem).
+    /// Adds these moments, of the voxel at `coords`, to `m`, relative to `x`, in units of the
+    /// voxel's edge (the parallel axis theorem; see [`Units`]).
     #[inline]
-    fn add_to(&self, coords: [u32; 3], edge: f64, x: DVec3, m: &mut Moments) {
-        let corner = DVec3::new(f64::from(coords[0]), f64::from(coords[1]), f64::from(coords[2])) * edge;
+    fn add_to(&self, coords: [u32; 3], x: DVec3, m: &mut Moments) {
+        let corner = DVec3::new(f64::from(coords[0]), f64::from(coords[1]), f64::from(coords[2]));
         let mean = DVec3::new(f64::from(self.mean[0]), f64::from(self.mean[1]), f64::from(self.mean[2]));
         let n = f64::from(self.count);
-        let d = corner + mean * edge - x;
-        let s = self.cov.map(|v| f64::from(v) * edge * edge);
+        let d = corner + mean - x;
+        let s = self.cov.map(f64::from);
         m.count += n;
         m.sum += d * n;
         m.outer[0] += n * (s[0] + d.x * d.x);
@@ -216,15 +252,20 @@ mod tests {
             for p in &tree.points[parents.range(i)] {
                 direct.add(p.as_dvec3() - x);
             }
-            kids.add_parent(i, pv, x, &mut merged);
+            let units = Units(2.0 * l);
+            kids.add_parent(i, pv, units.of(x), &mut merged);
+            units.scale(&mut merged);
             assert!(close(&merged, &direct), "parent {i}: {merged:?} {direct:?}");
             let mut sum = Moments::default();
+            let units = Units(l);
             for o in 0..8u32 {
                 let child = [2 * pv[0] + (o & 1), 2 * pv[1] + ((o >> 1) & 1), 2 * pv[2] + (o >> 2)];
-                if kids.add(i, child, x, &mut sum) {
+                if let Some(c) = kids.child(i, child) {
+                    kids.add_child(c, child, units.of(x), &mut sum);
                     children += 1;
                 }
             }
+            units.scale(&mut sum);
             assert!(close(&sum, &direct), "children of {i}");
         }
         assert_eq!(children, tree.levels[3].len());

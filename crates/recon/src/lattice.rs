@@ -83,6 +83,31 @@ pub(crate) fn offset(code: u64, delta: [i32; 3], level: u32) -> Option<u64> {
     Some(out)
 }
 
+/// The codes of the 3x3x3 block around voxel `code` at `level`, in [`crate::octree::BLOCK`]'s
+/// order: [`offset`] of every offset of the block (`None` outside `[0, 2^level)^3`), with each
+/// axis stepped once (the axes' bits are disjoint, so a neighbour is the other bits with one
+/// moved value per axis): a few instructions per neighbour instead of three steps each.
+#[inline]
+pub(crate) fn block(code: u64, level: u32) -> [Option<u64>; 27] {
+    let all = if level >= 21 { u64::MAX >> 1 } else { (1u64 << (3 * level)) - 1 };
+    let mut moved = [[None; 3]; 3];
+    let mut rest = code;
+    for (a, axis) in moved.iter_mut().enumerate() {
+        let mask = (AXIS_BITS << a) & all;
+        let bits = code & mask;
+        rest &= !mask;
+        *axis = [
+            (bits != 0).then(|| bits.wrapping_sub(1 << a) & mask),
+            Some(bits),
+            (bits != mask).then(|| ((bits | !mask).wrapping_add(1 << a)) & mask),
+        ];
+    }
+    std::array::from_fn(|i| match (moved[0][i % 3], moved[1][(i / 3) % 3], moved[2][i / 9]) {
+        (Some(x), Some(y), Some(z)) => Some(rest | x | y | z),
+        _ => None,
+    })
+}
+
 /// In-plane corner offsets `(b, c)` of a face on a positive / negative side, counter-clockwise
 /// seen from outside (so the right-hand normal is the side's direction).
 const POS: [[u32; 2]; 4] = [[0, 0], [1, 0], [1, 1], [0, 1]];
@@ -221,6 +246,8 @@ mod tests {
                         .then(|| morton::encode(want[0] as u32, want[1] as u32, want[2] as u32));
                     assert_eq!(offset(code, delta, level), want, "level {level} {c:?} {delta:?}");
                 }
+                let each: Vec<Option<u64>> = crate::octree::BLOCK.iter().map(|&d| offset(code, d, level)).collect();
+                assert_eq!(block(code, level).to_vec(), each, "level {level} {c:?}");
             }
         }
     }
