@@ -51,8 +51,8 @@
 use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
-use crate::lattice::{Side, axis, offset, opposite, sign, slot, step};
-use crate::octree::{BLOCK, Cells, Octree};
+use crate::lattice::{Side, axis, block, offset, opposite, sign, slot, step};
+use crate::octree::{Cells, Octree};
 use crate::rankmap::RankMap;
 
 /// Minimum `|d . n|` for a face to vote, and the refusal threshold.
@@ -173,8 +173,8 @@ fn filled_sides(
         let front = |p: u64| sheet_of(p).is_some_and(|s| in_front(s, coords, side, h));
         // The sheets of the voxels around the empty one that are not filled.
         let around = || {
-            BLOCK.iter().any(|&off| {
-                offset(next, off, level).and_then(|k| fine.find(k)).is_some_and(|k| {
+            block(next, level).into_iter().flatten().any(|k| {
+                fine.find(k).is_some_and(|k| {
                     !fine.is_filled(k) && sheets[k].state == State::Signed && in_front(&sheets[k], coords, side, h)
                 })
             })
@@ -276,17 +276,17 @@ pub(crate) fn build(
                 let inherited = parent_mask.zip(coarse.find(key >> 3)).and_then(|(m, p)| m.sheets.get(p).copied());
                 return inherited.unwrap_or(Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable });
             }
-            let mut block = Moments::default();
-            for off in BLOCK {
-                if let Some(k) = offset(key, off, level).and_then(|k| fine.find(k)) {
-                    block.merge(&fine.moments[k]);
+            let mut around = Moments::default();
+            for k in block(key, level).into_iter().flatten() {
+                if let Some(k) = fine.find(k) {
+                    around.merge(&fine.moments[k]);
                 }
             }
             let unreliable = Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable };
-            if block.count < 8.0 {
+            if around.count < 8.0 {
                 return unreliable;
             }
-            let Some(plane) = crate::fit::plane(&block) else { return unreliable };
+            let Some(plane) = crate::fit::plane(&around) else { return unreliable };
             let [l0, l1, _] = plane.eigenvalues;
             if !(l0.sqrt() < 0.5 * l1.sqrt()) {
                 return unreliable;
@@ -337,13 +337,11 @@ pub(crate) fn build(
             if spread > 0.0 && delta.abs() > 0.25 * spread { delta.signum() } else { 0.0 }
         } else {
             let (mut pos, mut neg) = (0, 0);
-            for off in BLOCK {
-                if let Some(k) = offset(parent, off, level - 1) {
-                    if coarse.occupied(k) {
-                        let (p, q) = votes(faces_on(k), s.n);
-                        pos += p;
-                        neg += q;
-                    }
+            for k in block(parent, level - 1).into_iter().flatten() {
+                if coarse.occupied(k) {
+                    let (p, q) = votes(faces_on(k), s.n);
+                    pos += p;
+                    neg += q;
                 }
             }
             if pos > 2 * neg {
@@ -369,8 +367,8 @@ pub(crate) fn build(
         .filter(|&i| {
             let key = fine.keys[i];
             let mi = fine.moments[i].mean().unwrap_or_default();
-            BLOCK.iter().any(|&off| {
-                offset(key, off, level).and_then(|k| fine.find(k)).is_some_and(|k| {
+            block(key, level).into_iter().flatten().any(|k| {
+                fine.find(k).is_some_and(|k| {
                     let mk = fine.moments[k].mean().unwrap_or_default();
                     sheets[k].state == State::Signed
                         && !filled(k)
@@ -391,8 +389,8 @@ pub(crate) fn build(
             .filter_map(|i| {
                 let key = fine.keys[i];
                 let mut sum = 0.0;
-                for off in BLOCK {
-                    if let Some(k) = offset(key, off, level).and_then(|k| fine.find(k)) {
+                for k in block(key, level).into_iter().flatten() {
+                    if let Some(k) = fine.find(k) {
                         if sheets[k].state == State::Signed {
                             sum += sheets[k].n.dot(sheets[i].n);
                         }
