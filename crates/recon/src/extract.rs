@@ -124,23 +124,51 @@ pub(crate) fn extract(slots: &[u64], dec: &Decisions<'_>) -> (Extracted, Vec<Bad
         }
         quads.push(q);
     }
-    let bad = bad_edges(&quads, slots, dec);
+    let bad = bad_edges(&quads, corners_out.len(), slots, dec);
     (Extracted { quads, corners: corners_out }, bad)
 }
 
-/// Edges with more than two faces, or two faces running the same way.
-fn bad_edges(quads: &[[u32; 4]], slots: &[u64], dec: &Decisions<'_>) -> Vec<BadEdge> {
-    let mut edges: Vec<(u32, u32, u32, u8)> = quads
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(f, q)| {
-            (0..4).map(move |k| {
-                let (a, b) = (q[k], q[(k + 1) % 4]);
-                (a.min(b), a.max(b), f as u32, k as u8)
-            })
-        })
-        .collect();
-    edges.par_sort_unstable();
+/// Edges with more than two faces, or two faces running the same way (over `nv` vertices).
+///
+/// The face edges `(smaller, larger, face, k)` in sorted order: a counting sort by the smaller
+/// vertex, then each vertex's few edges sorted (the order of sorting all of them, without that
+/// sort; the extraction runs once more after every round of flips).
+fn bad_edges(quads: &[[u32; 4]], nv: usize, slots: &[u64], dec: &Decisions<'_>) -> Vec<BadEdge> {
+    let ends = |q: &[u32; 4], k: usize| {
+        let (a, b) = (q[k], q[(k + 1) % 4]);
+        (a.min(b), a.max(b))
+    };
+    let mut first = vec![0u32; nv + 1];
+    for q in quads {
+        for k in 0..4 {
+            first[ends(q, k).0 as usize + 1] += 1;
+        }
+    }
+    for i in 0..nv {
+        first[i + 1] += first[i];
+    }
+    let mut edges = vec![(0u32, 0u32, 0u32, 0u8); 4 * quads.len()];
+    {
+        let mut fill = first.clone();
+        for (f, q) in quads.iter().enumerate() {
+            for k in 0..4 {
+                let (a, b) = ends(q, k);
+                let at = &mut fill[a as usize];
+                edges[*at as usize] = (a, b, f as u32, k as u8);
+                *at += 1;
+            }
+        }
+    }
+    let mut groups: Vec<&mut [(u32, u32, u32, u8)]> = Vec::with_capacity(nv);
+    let mut rest = edges.as_mut_slice();
+    for w in first.windows(2) {
+        let (here, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+        if here.len() > 1 {
+            groups.push(here);
+        }
+        rest = tail;
+    }
+    groups.into_par_iter().for_each(<[(u32, u32, u32, u8)]>::sort_unstable);
     let mut bad = Vec::new();
     let mut i = 0;
     while i < edges.len() {
