@@ -1,8 +1,10 @@
 //! A closed-form plane fit for the hot loops (the sheets of [`crate::sheet`], the diagonal test of
 //! [`crate::irregular`], the vertex mapping of [`crate::mapping`]).
 //!
-//! The covariance eigenvalues come from the trigonometric solution of the characteristic cubic
-//! (Smith 1961), the normal from the largest cross product of two rows of `C - l0 I`. That is
+//! The covariance eigenvalues are the roots of the characteristic cubic, normalised as in the
+//! trigonometric solution (Smith 1961) but found without `acos`/`cos` (a polynomial start and two
+//! Newton steps, [`smallest_root`]), the normal from the largest cross product of two rows of
+//! `C - l0 I`. That is
 //! several times faster than the cyclic Jacobi of [`octowrap_geom::sym_eigen3`], which remains the
 //! fallback when the smallest eigenvalue is (nearly) repeated and the cross products vanish.
 
@@ -58,8 +60,8 @@ fn solve<const ALL: bool>(m: &Moments) -> Option<Plane> {
     let (b00, b11, b22) = ((a00 - q) / p, (a11 - q) / p, (a22 - q) / p);
     let (b01, b02, b12) = (a01 / p, a02 / p, a12 / p);
     let det = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02);
-    let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
-    let l0 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+    let s = (det / 2.0).clamp(-1.0, 1.0);
+    let l0 = q + p * smallest_root(s);
     let r0 = DVec3::new(a00 - l0, a01, a02);
     let r1 = DVec3::new(a01, a11 - l0, a12);
     let r2 = DVec3::new(a02, a12, a22 - l0);
@@ -73,18 +75,44 @@ fn solve<const ALL: bool>(m: &Moments) -> Option<Plane> {
         (c12, d12)
     };
     // The rows span only a line when l0 is (nearly) double: the cross products vanish. The test
-    // needs `l2 - l0`, which lies in [3 p, 2 sqrt(3) p] (`phi` is in [0, pi / 3]; rounding moves it
-    // by far less than 1e-6 p, as `p > 1e-9 scale` and `|q| <= scale`): with `d` above the bound
+    // needs `l2 - l0`, which lies in [3 p, 2 sqrt(3) p] (the normalised roots are `2 cos(phi + 2 pi
+    // k / 3)` with `phi` in [0, pi / 3]; rounding moves it by far less than 1e-6 p, as
+    // `p > 1e-9 scale` and `|q| <= scale`): with `d` above the bound
     // for `3.5 p` the test passes for any `l2`, so the plane alone skips computing it.
     if !ALL && d > 1e-12 * (3.5 * p).powi(4) {
         return Some(Plane { point: c, normal: best / d.sqrt(), eigenvalues: [l0.max(0.0), 0.0, 0.0] });
     }
-    let l2 = q + 2.0 * p * phi.cos();
+    // The largest root of the cubic is minus the smallest of the cubic with `-s`.
+    let l2 = q - p * smallest_root(-s);
     let l1 = 3.0 * q - l0 - l2;
     if !(d > 1e-12 * (l2 - l0).powi(4)) || !(l2 - l0 > 0.0) {
         return jacobi();
     }
     Some(Plane { point: c, normal: best / d.sqrt(), eigenvalues: [l0.max(0.0), l1.max(0.0), l2.max(0.0)] })
+}
+
+/// The smallest root of `b^3 - 3 b - 2 s` for `s` in `[-1, 1]` (the normalised characteristic cubic
+/// of the covariance: its roots are `2 cos(acos(s) / 3 + 2 pi k / 3)`), without trigonometry.
+///
+/// The root is `-1 - e` with `e` in `[0, 1]` the root of `e^3 + 3 e^2 = 2 w^2`, `w^2 = 1 - s`:
+/// smooth in `w` (in `s`, the root has a square-root singularity at the double root `s = 1`). A
+/// cubic polynomial in `w` (least-squares fit, relative error under 2e-4) starts two Newton steps
+/// (relative error 2e-8, then rounding). `h(e) = e^3 + 3 e^2 - 2 w^2` is convex and increasing on
+/// `e > 0`, so the steps cannot leave `(0, 1]`.
+#[inline]
+fn smallest_root(s: f64) -> f64 {
+    let w2 = (1.0 - s).max(0.0);
+    if w2 == 0.0 {
+        return -1.0;
+    }
+    let w = w2.sqrt();
+    let mut e = w
+        * (0.816_496_580_927_726
+            + w * (-0.109_203_646_885_705_86 + w * (0.030_202_850_638_577_8 - w * 0.005_449_653_632_357_36)));
+    for _ in 0..2 {
+        e -= (e * e * (e + 3.0) - 2.0 * w2) / (3.0 * e * (e + 2.0));
+    }
+    -1.0 - e
 }
 
 #[cfg(test)]
@@ -118,5 +146,33 @@ mod tests {
             // The plane alone is the same bits.
             assert_eq!(normal(&m), Some((a.point, a.normal)), "case {case}");
         }
+    }
+
+    /// The trig-free root is the trigonometric one to rounding, over the whole range, including
+    /// the double root (`s = 1`) and the ends.
+    #[test]
+    fn smallest_root_matches_the_trigonometric_solution() {
+        let mut worst = 0.0f64;
+        for i in 0..=20_000 {
+            let s = -1.0 + f64::from(i) / 10_000.0;
+            let s = if i == 19_999 { 1.0 - f64::EPSILON } else { s };
+            let trig = 2.0 * (s.acos() / 3.0 + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+            let b = smallest_root(s);
+            assert!((-2.0..=-1.0).contains(&b), "s {s}: {b}");
+            // A root of the cubic, to rounding.
+            assert!((b * b * b - 3.0 * b - 2.0 * s).abs() < 1e-14, "s {s}: {b}");
+            worst = worst.max((b - trig).abs());
+            let largest = -smallest_root(-s);
+            let trig_largest = 2.0 * (s.acos() / 3.0).cos();
+            worst = worst.max((largest - trig_largest).abs());
+            // Away from the double roots, to a few units in the last place.
+            if s.abs() < 0.99 {
+                assert!((b - trig).abs() < 1e-14 && (largest - trig_largest).abs() < 1e-14, "s {s}");
+            }
+        }
+        // Near the double root the trigonometric form itself loses digits (like `sqrt(1 - s)`).
+        assert!(worst < 1e-7, "{worst}");
+        assert_eq!(smallest_root(1.0).to_bits(), (-1.0f64).to_bits());
+        assert!((smallest_root(-1.0) + 2.0).abs() < 1e-15);
     }
 }
