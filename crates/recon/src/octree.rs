@@ -379,10 +379,9 @@ impl Octree {
 /// into one sub-slice per chunk, so every chunk scatters into slices of its own. The order inside
 /// a bucket before its sort is the input order either way, and the sort makes it irrelevant.
 ///
-/// Each bucket is sorted the same way, by the next 12 bits, until its parts are small
-/// ([`sort_bucket`]): surface points fill few of a bucket's sub-buckets, so a comparison sort of a
-/// whole bucket (thousands of pairs) did about 4x the work (the 4.3 M case's points: 1.06 G
-/// instructions in the buckets' quicksorts).
+/// Each bucket is sorted by counting passes on its next bits too, until its parts are small
+/// ([`sort_bucket`]): a comparison sort of whole buckets (thousands of pairs on surface data)
+/// did more work (the 4.3 M case's points: 1.06 G instructions in the buckets' quicksorts).
 pub(crate) fn sort_codes(pairs: &mut Vec<(u64, u32)>, key_bits: u32) {
     const BITS: u32 = 12;
     const BUCKETS: usize = 1 << BITS;
@@ -440,36 +439,43 @@ pub(crate) fn sort_codes(pairs: &mut Vec<(u64, u32)>, key_bits: u32) {
 const SMALL_BUCKET: usize = 32;
 
 /// Sorts `pairs`, whose codes agree above bit `bits`: below [`SMALL_BUCKET`] pairs (or with no
-/// bits left) by comparison, else by a counting pass on the next bits (about twice as many bins
-/// as pairs, at most 12 bits; into `tmp`, then back) and each part recursively. The pairs are
-/// distinct, so the result is the unique sorted order.
+/// bits left) by comparison, else by a counting pass on the next bits (a quarter to a half as
+/// many bins as pairs, at most 12 bits; from a copy in `tmp`) and each part recursively. The
+/// pairs are distinct, so the result is the unique sorted order.
 fn sort_bucket(pairs: &mut [(u64, u32)], bits: u32, tmp: &mut Vec<(u64, u32)>) {
     if pairs.len() < SMALL_BUCKET || bits == 0 {
         pairs.sort_unstable();
         return;
     }
-    let digit = bits.min(12).min(pairs.len().ilog2() + 1);
+    let digit = bits.min(12).min(pairs.len().ilog2() - 1);
     let shift = bits - digit;
     let mask = (1u64 << digit) - 1;
     let at = |p: &(u64, u32)| ((p.0 >> shift) & mask) as usize;
-    let mut starts = vec![0u32; (1 << digit) + 1];
+    let bins = 1usize << digit;
+    // Counts at `d + 2`, summed: `starts[d + 1]` is where bin `d` starts, and advances while it
+    // fills, to where bin `d + 1` starts (no copy of the offsets). Small counts on the stack.
+    let (mut small, mut large) = ([0u32; 258], Vec::new());
+    let starts: &mut [u32] = if bins + 2 <= small.len() {
+        &mut small[..bins + 2]
+    } else {
+        large.resize(bins + 2, 0);
+        &mut large
+    };
     for p in pairs.iter() {
-        starts[at(p) + 1] += 1;
+        starts[at(p) + 2] += 1;
     }
-    for i in 0..1 << digit {
-        starts[i + 1] += starts[i];
+    for i in 2..bins + 2 {
+        starts[i] += starts[i - 1];
     }
     tmp.clear();
-    tmp.resize(pairs.len(), (0, 0));
-    let mut fill = starts.clone();
-    for p in pairs.iter() {
-        let d = at(p);
-        tmp[fill[d] as usize] = *p;
-        fill[d] += 1;
+    tmp.extend_from_slice(pairs);
+    for p in tmp.iter() {
+        let slot = &mut starts[at(p) + 1];
+        pairs[*slot as usize] = *p;
+        *slot += 1;
     }
-    pairs.copy_from_slice(tmp);
-    for w in starts.windows(2) {
-        let part = &mut pairs[w[0] as usize..w[1] as usize];
+    for d in 0..bins {
+        let part = &mut pairs[starts[d] as usize..starts[d + 1] as usize];
         if part.len() > 1 {
             sort_bucket(part, shift, tmp);
         }
