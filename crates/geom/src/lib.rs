@@ -23,7 +23,7 @@ mod plane;
 mod random;
 
 pub use aabb::Aabb;
-pub use distance::point_triangle_squared;
+pub use distance::{closest_on_triangle, point_triangle_squared};
 pub use eigen::{SymEigen3, sym_eigen3};
 pub use glam;
 pub use glam::{DMat3, DVec3, Vec3};

@@ -54,6 +54,10 @@ fn main() {
     };
     let mut o = ReconOptions::default();
     o.max_level = MaxLevel::Level(level);
+    // OCTOWRAP_FIT_PASSES=N overrides the fit's passes (0: off), for profiling.
+    if let Some(n) = std::env::var("OCTOWRAP_FIT_PASSES").ok().and_then(|s| s.parse().ok()) {
+        o.fit_passes = n;
+    }
     let t = Instant::now();
     // OCTOWRAP_HWM=1: the peak resident memory so far at the start of every stage.
     let hwm = std::env::var_os("OCTOWRAP_HWM").is_some();

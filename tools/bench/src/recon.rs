@@ -213,40 +213,52 @@ fn accuracy(name: &str, points: &[DVec3], max_level: u32) {
     }
 }
 
-/// Points-to-mesh RMS per level for several relaxation pass counts.
-fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
+/// A table of the points-to-mesh RMS / diagonal per level (levels 1 to `max_level`), one row per
+/// labelled set of options.
+fn effect_table(title: &str, column: &str, points: &[DVec3], max_level: u32, rows: Vec<(String, ReconOptions)>) {
     let diag = Aabb::from_points(points).diagonal();
     println!();
-    println!("### Relaxation on {name}: points→mesh RMS / diagonal per level, passes on every level");
+    println!("### {title}");
     println!();
     let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
-    println!("| passes | {} |", header.join(" | "));
+    println!("| {column} | {} |", header.join(" | "));
     println!("|---|{}", "---|".repeat(max_level as usize));
-    for passes in [0, 1, 4] {
-        let r = run(points, &opts(max_level, Some(passes)));
+    for (label, o) in rows {
+        let r = run(points, &o);
         let cells: Vec<String> =
             r.hierarchy.levels.iter().skip(1).map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag)).collect();
-        println!("| {passes} | {} |", cells.join(" | "));
+        println!("| {label} | {} |", cells.join(" | "));
     }
+}
+
+/// Points-to-mesh RMS per level for several relaxation pass counts.
+fn relaxation_effect(name: &str, points: &[DVec3], max_level: u32) {
+    let rows = [0, 1, 4].map(|passes| (passes.to_string(), opts(max_level, Some(passes))));
+    let title = format!("Relaxation on {name}: points→mesh RMS / diagonal per level, passes on every level");
+    effect_table(&title, "passes", points, max_level, rows.into());
 }
 
 /// Points-to-mesh RMS per level with the paper's plane and with the weighted quadric.
 fn mapping_effect(name: &str, points: &[DVec3], max_level: u32) {
-    let diag = Aabb::from_points(points).diagonal();
-    println!();
-    println!("### Vertex mapping on {name}: points→mesh RMS / diagonal per level (default relaxation)");
-    println!();
-    let header: Vec<String> = (1..=max_level).map(|j| format!("L{j}")).collect();
-    println!("| mapping | {} |", header.join(" | "));
-    println!("|---|{}", "---|".repeat(max_level as usize));
-    for quadric in [false, true] {
+    let rows = [false, true].map(|quadric| {
         let mut o = opts(max_level, None);
         o.quadric_mapping = quadric;
-        let r = run(points, &o);
-        let cells: Vec<String> =
-            r.hierarchy.levels.iter().skip(1).map(|l| format!("{:.5}", errors(points, &l.mesh).0.0 / diag)).collect();
-        println!("| {} | {} |", if quadric { "quadric" } else { "plane (paper)" }, cells.join(" | "));
-    }
+        (if quadric { "quadric" } else { "plane (paper)" }.to_string(), o)
+    });
+    let title = format!("Vertex mapping on {name}: points→mesh RMS / diagonal per level (default relaxation)");
+    effect_table(&title, "mapping", points, max_level, rows.into());
+}
+
+/// Points-to-mesh RMS per level with the least-squares fit off (the paper's mapping and
+/// relaxation alone) and with 1, 3 (the default) and 5 passes.
+fn fit_effect(name: &str, points: &[DVec3], max_level: u32) {
+    let rows = [0, 1, 3, 5].map(|passes| {
+        let mut o = opts(max_level, None);
+        o.fit_passes = passes;
+        (if passes == 0 { "0 (paper)".to_string() } else { passes.to_string() }, o)
+    });
+    let title = format!("The fit on {name}: points→mesh RMS / diagonal per level, by fit passes");
+    effect_table(&title, "fit passes", points, max_level, rows.into());
 }
 
 /// Points-to-mesh RMS per level with the per-region trusted level off and on (`region_levels`
@@ -394,6 +406,8 @@ pub fn report() {
     let dragon: Option<Vec<DVec3>> = dragon_mesh.as_ref().map(|m| m.vertices.positions.clone());
     // OCTOWRAP_RECON_QUICK=1 skips the accuracy tables (timing targets only).
     let quick = std::env::var_os("OCTOWRAP_RECON_QUICK").is_some();
+    // OCTOWRAP_RECON_ACCURACY=1 prints the three accuracy tables only.
+    let accuracy_only = std::env::var_os("OCTOWRAP_RECON_ACCURACY").is_some();
     if let Some(p) = rabbit.as_ref().filter(|_| !quick) {
         accuracy("Rabbit (bun_zipper_res2)", p, 6);
     }
@@ -403,6 +417,9 @@ pub fn report() {
     if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         accuracy("Dragon (dragon_vrip)", p, 7);
     }
+    if accuracy_only {
+        return;
+    }
     if let Some(p) = rabbit.as_ref().filter(|_| !quick) {
         regions_effect("the Rabbit", p, 6, 2);
     }
@@ -411,6 +428,15 @@ pub fn report() {
     }
     if let Some(p) = dragon.as_ref().filter(|_| !quick) {
         regions_effect("the dragon", p, 8, 1);
+    }
+    if let Some(p) = rabbit.as_ref().filter(|_| !quick) {
+        fit_effect("the Rabbit", p, 6);
+    }
+    if let Some(p) = bunny.as_ref().filter(|_| !quick) {
+        fit_effect("the bunny", p, 7);
+    }
+    if let Some(p) = dragon.as_ref().filter(|_| !quick) {
+        fit_effect("the dragon", p, 7);
     }
     if let Some(p) = bunny.as_ref().filter(|_| !quick) {
         mapping_effect("the bunny", p, 7);

@@ -1,0 +1,503 @@
+//! Least-squares fit of a level's vertices to the points, after the mapping and relaxation
+//! (beyond the paper: [`crate::ReconOptions::fit_passes`]).
+//!
+//! The paper's vertex mapping (§3.6) puts every vertex on a plane fitted to the points near it,
+//! which makes the vertices lie on the surface but not the faces between them: on a coarse level
+//! a face spans a curved patch, and the points between the corners stay far from it (on the
+//! bunny's level 3 the points-to-mesh RMS was 3x the paper's Table 3, though the vertices lay on
+//! their planes). This stage keeps the connectivity and moves the vertices to minimise the
+//! squared distance from the points to the mesh, in the manner of Hoppe et al.'s mesh
+//! optimisation (SIGGRAPH 1993, `E_dist`), alternating two steps for a fixed number of passes:
+//!
+//! 1. **Projection**: every sample point (a fixed stride of the level's points, about
+//!    [`crate::ReconOptions::fit_samples`] per face) finds the nearest point of the mesh among the
+//!    faces of its own voxel and its six side neighbours (all 26 neighbours when those have none;
+//!    a wrapped face belongs to its slot's voxel, a subdivided one to the voxel of its centre),
+//!    each quad split along its shorter diagonal as [`octowrap_mesh::Mesh::triangles`] splits it,
+//!    as weights of the quad's corners. Samples with no face that near (over a hole) are left
+//!    out. Later passes start from the previous foot and look at the faces around it only when
+//!    the foot lies on its face's border.
+//! 2. **Solve**: with the weights fixed, the positions `x` minimising
+//!    `sum_p |p - sum_k w_pk x_k|^2 + m (lambda sum_v |x_v - x0_v|^2 + kappa sum_e |d_e - d0_e|^2)`
+//!    (`x0` the positions before the pass, `d_e` an edge's vector, `m` the samples per vertex,
+//!    `lambda` = [`STIFFNESS`], `kappa` = [`MEMBRANE`]) solve a sparse symmetric positive
+//!    definite system, the same for the three coordinates, by a few conjugate-gradient steps
+//!    (Jacobi preconditioner). The membrane term keeps a vertex that few samples see moving
+//!    with its neighbours: without it such vertices strayed up to 0.2 of the diagonal from the
+//!    points on the Rabbit's subdivided level 6; with it they stay as near as the mapping put
+//!    them, and the subdivided levels come out closer to the points too.
+//!
+//! Each pass lowers the energy, so the points-to-mesh distance falls; the regulariser keeps
+//! vertices without points in place and the system well posed. Measured on the bunny (see
+//! `tools/bench/RESULTS.md`), the points-to-mesh RMS of levels 1-7 falls 1.5-2.9x.
+//!
+//! Determinism: the projections are independent per point, every sum runs in a fixed order
+//! (faces' sums in point order, each vertex's in its face-corner order, dot products in fixed
+//! chunks), so the result does not depend on the number of threads.
+
+use octowrap_geom::glam::Vec3;
+use octowrap_geom::{DVec3, closest_on_triangle};
+use rayon::prelude::*;
+
+use crate::lattice::offset;
+use crate::octree::Cells;
+
+/// The regulariser's weight `lambda`, relative to the samples per vertex.
+pub(crate) const STIFFNESS: f64 = 1e-3;
+
+/// The membrane term's weight `kappa`, relative to the samples per vertex.
+pub(crate) const MEMBRANE: f64 = 0.03;
+
+/// Conjugate-gradient iterations per pass at most.
+const CG_ITERATIONS: usize = 8;
+
+/// Relative residual at which conjugate gradients stop.
+const CG_TOLERANCE: f64 = 1e-3;
+
+/// The 27 voxel offsets of a 3x3x3 block.
+const NEIGHBOURS: [[i32; 3]; 27] = {
+    let mut out = [[0; 3]; 27];
+    let mut i = 0;
+    while i < 27 {
+        out[i] = [(i % 3) as i32 - 1, ((i / 3) % 3) as i32 - 1, (i / 9) as i32 - 1];
+        i += 1;
+    }
+    out
+};
+
+/// Fewest items per parallel task in the per-vertex and per-sample loops.
+const MIN_LEN: usize = 1024;
+
+/// Chunk size of the deterministic dot products.
+const CHUNK: usize = 4096;
+
+/// What the fit works on: the points (local coordinates, in Morton order), the voxels of one
+/// level over them, and for every face the voxel (index into `grid`) it lies on, or `u32::MAX`.
+pub(crate) struct Input<'a> {
+    /// The points, in Morton order.
+    pub points: &'a [Vec3],
+    /// Voxels whose point ranges cover `points`.
+    pub grid: &'a Cells,
+    /// Per face, its voxel in `grid` (`u32::MAX` for none).
+    pub face_voxel: &'a [u32],
+}
+
+/// One sample's nearest point: its face, the weights of the face's four corners, the point.
+#[derive(Clone, Copy)]
+struct Foot {
+    face: u32,
+    weights: [f64; 4],
+    point: DVec3,
+}
+
+/// Fits `positions` to the points for `passes` passes, with about `samples` sample points per
+/// face. Returns the samples' mean squared distance to the mesh before and after (for reports
+/// and tests), `(0, 0)` when nothing was fitted.
+pub(crate) fn fit(
+    input: &Input<'_>,
+    quads: &[[u32; 4]],
+    positions: &mut [DVec3],
+    passes: u32,
+    samples: u32,
+) -> (f64, f64) {
+    let grid = input.grid;
+    if passes == 0 || quads.is_empty() || input.points.is_empty() || grid.len() == 0 {
+        return (0.0, 0.0);
+    }
+    // Faces per voxel (counting sort, faces ascending in each voxel).
+    let nv = grid.len();
+    let mut first = vec![0u32; nv + 1];
+    for &c in input.face_voxel {
+        if (c as usize) < nv {
+            first[c as usize + 1] += 1;
+        }
+    }
+    for i in 0..nv {
+        first[i + 1] += first[i];
+    }
+    let mut faces_of = vec![0u32; first[nv] as usize];
+    {
+        let mut fill = first.clone();
+        for (f, &c) in input.face_voxel.iter().enumerate() {
+            if (c as usize) < nv {
+                faces_of[fill[c as usize] as usize] = f as u32;
+                fill[c as usize] += 1;
+            }
+        }
+    }
+    // Candidate faces of every voxel: the faces of the 27 voxels around it, ascending.
+    let level = grid.level;
+    let candidates: Vec<Vec<u32>> = grid
+        .keys
+        .par_iter()
+        .map(|&code| {
+            let mut out = Vec::new();
+            // The voxel's own faces and its six neighbours' (the faces of the voxels further
+            // out only when these have none): later passes walk from each foot to the faces
+            // around it, so a first foot one face away from the nearest is corrected there.
+            for ring in 0..=3 {
+                if ring == 2 && !out.is_empty() {
+                    break;
+                }
+                for d in NEIGHBOURS.iter().filter(|d| d.iter().map(|c| c.abs()).sum::<i32>() == ring) {
+                    let Some(n) = offset(code, *d, level) else { continue };
+                    if let Some(i) = grid.find(n) {
+                        out.extend_from_slice(&faces_of[first[i] as usize..first[i + 1] as usize]);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    drop(faces_of);
+    let total = input.points.len();
+    let stride = total.div_ceil((samples.max(1) as usize).saturating_mul(quads.len())).max(1);
+    let incidence = Incidence::new(quads, positions.len());
+    // The first projection searches the faces around each sample's voxel; later ones the faces
+    // around the previous foot (the mesh moved little).
+    let mut feet = project(input, &candidates, quads, positions, stride);
+    drop(candidates);
+    if feet.is_empty() {
+        return (0.0, 0.0);
+    }
+    let before = mean_d2(&feet, quads, positions);
+    for pass in 0..passes {
+        if pass > 0 {
+            reproject(&mut feet, &incidence, quads, positions, &splits(quads, positions));
+        }
+        solve(&feet, quads, &incidence, positions);
+    }
+    (before, mean_d2(&feet, quads, positions))
+}
+
+/// Mean squared distance of the samples to their feet.
+fn mean_d2(feet: &[Foot], quads: &[[u32; 4]], x: &[DVec3]) -> f64 {
+    let sums: Vec<f64> = feet
+        .par_chunks(CHUNK)
+        .map(|c| {
+            c.iter()
+                .map(|f| {
+                    let q = quads[f.face as usize];
+                    let at = (0..4).fold(DVec3::ZERO, |s, k| s + x[q[k] as usize] * f.weights[k]);
+                    at.distance_squared(f.point)
+                })
+                .sum::<f64>()
+        })
+        .collect();
+    sums.iter().sum::<f64>() / feet.len() as f64
+}
+
+/// Moves every foot to the nearest point of its face or, when it lies on the face's border
+/// (a corner weight of zero), of the faces sharing a vertex with it.
+fn reproject(feet: &mut [Foot], inc: &Incidence, quads: &[[u32; 4]], x: &[DVec3], splits: &[bool]) {
+    feet.par_iter_mut().with_min_len(MIN_LEN).for_each(|foot| {
+        let p = foot.point;
+        let mut best = f64::INFINITY;
+        let face = foot.face;
+        let mut found = *foot;
+        nearest_on_face(p, face, &quads[face as usize], x, splits[face as usize], &mut best, &mut found);
+        let w = found.weights;
+        // Inside the face (or on its diagonal) no neighbour is nearer; on its border, the faces
+        // around the corners of the border edge (or the corner) it lies on may be.
+        let on = |k: usize| w[k] > 0.0;
+        let border = (0..4).any(|k| !(on((k + 2) % 4) || on((k + 1) % 4) && on((k + 3) % 4)));
+        if border {
+            let q = quads[face as usize];
+            for k in (0..4).filter(|&k| on(k)) {
+                for &(f, _) in inc.of(q[k] as usize) {
+                    if f != face {
+                        nearest_on_face(p, f, &quads[f as usize], x, splits[f as usize], &mut best, &mut found);
+                    }
+                }
+            }
+        }
+        *foot = found;
+    });
+}
+
+/// Updates `best` and `foot` when face `f` has a point nearer to `p` than `best`.
+#[inline]
+fn nearest_on_face(p: DVec3, f: u32, q: &[u32; 4], x: &[DVec3], other: bool, best: &mut f64, foot: &mut Foot) {
+    let tris = if other { [[0, 1, 3], [1, 2, 3]] } else { [[0, 1, 2], [0, 2, 3]] };
+    for tri in tris {
+        let t = tri.map(|k: usize| x[q[k] as usize]);
+        let (w, d2) = closest_on_triangle(p, &t);
+        if d2 < *best {
+            *best = d2;
+            let mut weights = [0.0; 4];
+            for (m, &c) in tri.iter().enumerate() {
+                weights[c] = w[m];
+            }
+            *foot = Foot { face: f, weights, point: p };
+        }
+    }
+}
+
+/// Per face, whether it splits along its `1-3` diagonal (the shorter one; `0-2` on a tie), as
+/// [`octowrap_mesh::Mesh::triangles`] splits it.
+fn splits(quads: &[[u32; 4]], x: &[DVec3]) -> Vec<bool> {
+    quads
+        .par_iter()
+        .map(|q| {
+            let p = |k: usize| x[q[k] as usize];
+            p(0).distance_squared(p(2)) > p(1).distance_squared(p(3))
+        })
+        .collect()
+}
+
+/// Squared distance from `p` to the box `[lo, hi]`.
+#[inline]
+fn box_d2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    let d = (lo - p).max(p - hi).max(DVec3::ZERO);
+    d.length_squared()
+}
+
+/// The nearest mesh point of every sample (every `stride`-th point), in point order.
+fn project(input: &Input<'_>, candidates: &[Vec<u32>], quads: &[[u32; 4]], x: &[DVec3], stride: usize) -> Vec<Foot> {
+    let splits = splits(quads, x);
+    let boxes: Vec<(DVec3, DVec3)> = quads
+        .par_iter()
+        .map(|q| {
+            let p = q.map(|v| x[v as usize]);
+            (p[0].min(p[1]).min(p[2]).min(p[3]), p[0].max(p[1]).max(p[2]).max(p[3]))
+        })
+        .collect();
+    let grid = input.grid;
+    let per_voxel: Vec<Vec<Foot>> = (0..grid.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let cands = &candidates[i];
+            let mut out = Vec::new();
+            if cands.is_empty() {
+                return out;
+            }
+            let r = grid.range(i);
+            // Samples at multiples of the stride (the same points whatever the voxels).
+            let start = r.start.div_ceil(stride) * stride;
+            for k in (start..r.end).step_by(stride) {
+                let p = input.points[k].as_dvec3();
+                let mut best = f64::INFINITY;
+                let mut foot = Foot { face: u32::MAX, weights: [0.0; 4], point: p };
+                for &f in cands {
+                    let (lo, hi) = boxes[f as usize];
+                    if box_d2(p, lo, hi) < best {
+                        nearest_on_face(p, f, &quads[f as usize], x, splits[f as usize], &mut best, &mut foot);
+                    }
+                }
+                if foot.face != u32::MAX {
+                    out.push(foot);
+                }
+            }
+            out
+        })
+        .collect();
+    per_voxel.concat()
+}
+
+/// Every vertex's face corners, in face order (`first[v]..first[v + 1]` into `corners`, each
+/// `(face, corner)`).
+struct Incidence {
+    first: Vec<u32>,
+    corners: Vec<(u32, u8)>,
+}
+
+impl Incidence {
+    fn new(quads: &[[u32; 4]], n: usize) -> Self {
+        let mut first = vec![0u32; n + 1];
+        for q in quads {
+            for &v in q {
+                first[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            first[i + 1] += first[i];
+        }
+        let mut corners = vec![(0u32, 0u8); first[n] as usize];
+        let mut fill = first.clone();
+        for (f, q) in quads.iter().enumerate() {
+            for (k, &v) in q.iter().enumerate() {
+                corners[fill[v as usize] as usize] = (f as u32, k as u8);
+                fill[v as usize] += 1;
+            }
+        }
+        Self { first, corners }
+    }
+
+    fn of(&self, v: usize) -> &[(u32, u8)] {
+        &self.corners[self.first[v] as usize..self.first[v + 1] as usize]
+    }
+}
+
+/// Deterministic dot product of two vector fields, per coordinate.
+fn dot(a: &[DVec3], b: &[DVec3]) -> DVec3 {
+    let parts: Vec<DVec3> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| *x * *y).sum::<DVec3>())
+        .collect();
+    parts.iter().copied().sum()
+}
+
+/// Solves the pass's least-squares system for `x` (its current value is the regulariser's
+/// target and the start).
+fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &mut [DVec3]) {
+    let (rows, b, diag) = system(feet, quads, inc, x);
+    conjugate_gradients(&rows, &b, &diag, x);
+}
+
+/// One row of the matrix: `(column, value)`.
+type Row = Vec<(u32, f64)>;
+
+/// The pass's system: the matrix's rows, the right-hand side and the diagonal.
+fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (Vec<Row>, Vec<DVec3>, Vec<f64>) {
+    let n = x.len();
+    // Per face: the 4x4 sum of weight products and the weighted sum of points, in point order.
+    let mut start = vec![0u32; quads.len() + 1];
+    for f in feet {
+        start[f.face as usize + 1] += 1;
+    }
+    for i in 0..quads.len() {
+        start[i + 1] += start[i];
+    }
+    let mut order = vec![0u32; feet.len()];
+    {
+        let mut fill = start.clone();
+        for (i, f) in feet.iter().enumerate() {
+            order[fill[f.face as usize] as usize] = i as u32;
+            fill[f.face as usize] += 1;
+        }
+    }
+    let (gram, rhs): (Vec<[[f64; 4]; 4]>, Vec<[DVec3; 4]>) = (0..quads.len())
+        .into_par_iter()
+        .map(|f| {
+            let mut g = [[0.0; 4]; 4];
+            let mut r = [DVec3::ZERO; 4];
+            for &i in &order[start[f] as usize..start[f + 1] as usize] {
+                let foot = &feet[i as usize];
+                let w = foot.weights;
+                for a in 0..4 {
+                    r[a] += foot.point * w[a];
+                    for b in 0..4 {
+                        g[a][b] += w[a] * w[b];
+                    }
+                }
+            }
+            (g, r)
+        })
+        .unzip();
+    let per_vertex = feet.len() as f64 / n as f64;
+    let m = STIFFNESS * per_vertex;
+    let kappa = MEMBRANE * per_vertex;
+    // The membrane term's Laplacian of `p` at `v`: every face corner adds its two edges.
+    let laplacian = |p: &[DVec3], v: usize| -> DVec3 {
+        inc.of(v).iter().fold(DVec3::ZERO, |s, &(f, k)| {
+            let q = &quads[f as usize];
+            let k = k as usize;
+            s + (p[v] * 2.0 - p[q[(k + 1) % 4] as usize] - p[q[(k + 3) % 4] as usize])
+        })
+    };
+    // b = A^T p + m x0 + kappa L x0; diagonal of the matrix for the preconditioner.
+    let x0 = x;
+    let b: Vec<DVec3> = (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_LEN)
+        .map(|v| {
+            inc.of(v).iter().fold(x0[v] * m + laplacian(x0, v) * kappa, |s, &(f, k)| s + rhs[f as usize][k as usize])
+        })
+        .collect();
+    let diag: Vec<f64> = (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_LEN)
+        .map(|v| inc.of(v).iter().fold(m, |s, &(f, k)| s + gram[f as usize][k as usize][k as usize] + 2.0 * kappa))
+        .collect();
+    // The matrix's rows, assembled once: every face corner adds its 4x4 block's row and its two
+    // membrane edges; the entries of a column are summed in corner order.
+    let rows: Vec<Row> = (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_LEN)
+        .map(|v| {
+            let corners = inc.of(v);
+            let mut row: Vec<(u32, f64)> = Vec::with_capacity(1 + 4 * corners.len());
+            // Adds `a` to column `c` (a row has about 9 columns: a linear search is cheapest).
+            let mut add = |c: u32, a: f64| match row.iter_mut().find(|e| e.0 == c) {
+                Some(e) => e.1 += a,
+                None => row.push((c, a)),
+            };
+            add(v as u32, m);
+            for &(f, k) in corners {
+                let q = &quads[f as usize];
+                let k = k as usize;
+                let g = &gram[f as usize][k];
+                for c in 0..4 {
+                    add(q[c], g[c]);
+                }
+                add(v as u32, 2.0 * kappa);
+                add(q[(k + 1) % 4], -kappa);
+                add(q[(k + 3) % 4], -kappa);
+            }
+            row
+        })
+        .collect();
+    (rows, b, diag)
+}
+
+/// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
+/// coordinates at once.
+fn conjugate_gradients(rows: &[Row], b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
+    let n = x.len();
+    // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
+    // dot products are the chunks', added in order).
+    let apply = |p: &[DVec3], out: &mut [DVec3]| {
+        out.par_chunks_mut(CHUNK).zip(rows.par_chunks(CHUNK)).for_each(|(o, rows)| {
+            for (o, row) in o.iter_mut().zip(rows) {
+                *o = row.iter().fold(DVec3::ZERO, |s, &(c, a)| s + p[c as usize] * a);
+            }
+        });
+    };
+    // Preconditioned conjugate gradients, the three coordinates at once.
+    let mut ap = vec![DVec3::ZERO; n];
+    apply(x, &mut ap);
+    let mut r: Vec<DVec3> = b.iter().zip(&ap).map(|(b, a)| *b - *a).collect();
+    let mut z: Vec<DVec3> = r.iter().zip(diag).map(|(r, d)| *r / *d).collect();
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let mut rr = dot(&r, &r);
+    // Relative to the first residual (the pass's whole correction).
+    let stop = rr * (CG_TOLERANCE * CG_TOLERANCE);
+    for _ in 0..CG_ITERATIONS {
+        if rr.cmple(stop).all() {
+            break;
+        }
+        apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        // A coordinate that has converged (or has nothing to do) takes no step.
+        let alpha = DVec3::select(pap.cmpgt(DVec3::ZERO), rz / pap, DVec3::ZERO);
+        let parts: Vec<(DVec3, DVec3)> = x
+            .par_chunks_mut(CHUNK)
+            .zip(r.par_chunks_mut(CHUNK))
+            .zip(z.par_chunks_mut(CHUNK))
+            .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)).zip(diag.par_chunks(CHUNK)))
+            .map(|(((x, r), z), ((p, ap), d))| {
+                let (mut rz, mut rr) = (DVec3::ZERO, DVec3::ZERO);
+                for i in 0..x.len() {
+                    x[i] += alpha * p[i];
+                    r[i] -= alpha * ap[i];
+                    z[i] = r[i] / d[i];
+                    rz += r[i] * z[i];
+                    rr += r[i] * r[i];
+                }
+                (rz, rr)
+            })
+            .collect();
+        let rz_new: DVec3 = parts.iter().map(|p| p.0).sum();
+        rr = parts.iter().map(|p| p.1).sum();
+        let beta = DVec3::select(rz.cmpgt(DVec3::ZERO), rz_new / rz, DVec3::ZERO);
+        rz = rz_new;
+        p.par_chunks_mut(CHUNK).zip(z.par_chunks(CHUNK)).for_each(|(p, z)| {
+            for (p, z) in p.iter_mut().zip(z) {
+                *p = *z + beta * *p;
+            }
+        });
+    }
+}
