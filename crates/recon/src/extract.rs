@@ -168,27 +168,32 @@ fn bad_edges(quads: &[[u32; 4]], nv: usize, slots: &[u64], dec: &Decisions<'_>) 
         }
         rest = tail;
     }
-    groups.into_par_iter().for_each(<[(u32, u32, u32, u8)]>::sort_unstable);
-    let mut bad = Vec::new();
-    let mut i = 0;
-    while i < edges.len() {
-        let mut j = i + 1;
-        while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
-            j += 1;
+    // Each vertex's edges sorted and scanned for the runs of one edge, in parallel; collected in
+    // vertex order, so in the order of a scan of all the sorted edges.
+    let scan = |edges: &mut [(u32, u32, u32, u8)]| -> Vec<BadEdge> {
+        edges.sort_unstable();
+        let mut bad = Vec::new();
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
+                j += 1;
+            }
+            let group = &edges[i..j];
+            let same_way = group.len() == 2 && {
+                let dir = |e: &(u32, u32, u32, u8)| quads[e.2 as usize][usize::from(e.3)] == e.0;
+                dir(&group[0]) == dir(&group[1])
+            };
+            if group.len() > 2 || same_way {
+                let diagonal = group.iter().find_map(|e| match dec.partner(slots[e.2 as usize], usize::from(e.3)).0 {
+                    EdgeCase::Diagonal(b) => Some(pair_key(unslot(slots[e.2 as usize]).0, b)),
+                    _ => None,
+                });
+                bad.push(BadEdge { faces: group.iter().map(|e| e.2).collect(), diagonal });
+            }
+            i = j;
         }
-        let group = &edges[i..j];
-        let same_way = group.len() == 2 && {
-            let dir = |e: &(u32, u32, u32, u8)| quads[e.2 as usize][usize::from(e.3)] == e.0;
-            dir(&group[0]) == dir(&group[1])
-        };
-        if group.len() > 2 || same_way {
-            let diagonal = group.iter().find_map(|e| match dec.partner(slots[e.2 as usize], usize::from(e.3)).0 {
-                EdgeCase::Diagonal(b) => Some(pair_key(unslot(slots[e.2 as usize]).0, b)),
-                _ => None,
-            });
-            bad.push(BadEdge { faces: group.iter().map(|e| e.2).collect(), diagonal });
-        }
-        i = j;
-    }
-    bad
+        bad
+    };
+    groups.into_par_iter().flat_map_iter(scan).collect()
 }
