@@ -346,11 +346,15 @@ fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &mut [DVec3]) {
     conjugate_gradients(&rows, &b, &diag, x);
 }
 
-/// One row of the matrix: `(column, value)`.
-type Row = Vec<(u32, f64)>;
+/// The pass's matrix, row by row: row `v` is `entries[start[v]..start[v + 1]]`, each
+/// `(column, value)`.
+struct Matrix {
+    start: Vec<u32>,
+    entries: Vec<(u32, f64)>,
+}
 
 /// The pass's system: the matrix's rows, the right-hand side and the diagonal.
-fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (Vec<Row>, Vec<DVec3>, Vec<f64>) {
+fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (Matrix, Vec<DVec3>, Vec<f64>) {
     let n = x.len();
     // Per face: the 4x4 sum of weight products and the weighted sum of points, in point order.
     let mut start = vec![0u32; quads.len() + 1];
@@ -413,44 +417,60 @@ fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (V
         .collect();
     // The matrix's rows, assembled once: every face corner adds its 4x4 block's row and its two
     // membrane edges; the entries of a column are summed in corner order.
-    let rows: Vec<Row> = (0..n)
-        .into_par_iter()
-        .with_min_len(MIN_LEN)
-        .map(|v| {
-            let corners = inc.of(v);
-            let mut row: Vec<(u32, f64)> = Vec::with_capacity(1 + 4 * corners.len());
-            // Adds `a` to column `c` (a row has about 9 columns: a linear search is cheapest).
-            let mut add = |c: u32, a: f64| match row.iter_mut().find(|e| e.0 == c) {
-                Some(e) => e.1 += a,
-                None => row.push((c, a)),
-            };
-            add(v as u32, m);
-            for &(f, k) in corners {
-                let q = &quads[f as usize];
-                let k = k as usize;
-                let g = &gram[f as usize][k];
-                for c in 0..4 {
-                    add(q[c], g[c]);
+    let parts: Vec<(Vec<u32>, Vec<(u32, f64)>)> = (0..n)
+        .collect::<Vec<usize>>()
+        .par_chunks(CHUNK)
+        .map(|vs| {
+            let mut lens = Vec::with_capacity(vs.len());
+            let mut entries: Vec<(u32, f64)> = Vec::with_capacity(10 * vs.len());
+            for &v in vs {
+                let row_start = entries.len();
+                // Adds `a` to column `c` (a row has about 9 columns: a linear search is cheapest).
+                let mut add = |c: u32, a: f64| match entries[row_start..].iter_mut().find(|e| e.0 == c) {
+                    Some(e) => e.1 += a,
+                    None => entries.push((c, a)),
+                };
+                add(v as u32, m);
+                for &(f, k) in inc.of(v) {
+                    let q = &quads[f as usize];
+                    let k = k as usize;
+                    let g = &gram[f as usize][k];
+                    for c in 0..4 {
+                        add(q[c], g[c]);
+                    }
+                    add(v as u32, 2.0 * kappa);
+                    add(q[(k + 1) % 4], -kappa);
+                    add(q[(k + 3) % 4], -kappa);
                 }
-                add(v as u32, 2.0 * kappa);
-                add(q[(k + 1) % 4], -kappa);
-                add(q[(k + 3) % 4], -kappa);
+                lens.push((entries.len() - row_start) as u32);
             }
-            row
+            (lens, entries)
         })
         .collect();
+    let mut start = Vec::with_capacity(n + 1);
+    start.push(0u32);
+    let mut entries = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+    for (lens, e) in parts {
+        for l in lens {
+            start.push(start[start.len() - 1] + l);
+        }
+        entries.extend(e);
+    }
+    let rows = Matrix { start, entries };
     (rows, b, diag)
 }
 
 /// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
 /// coordinates at once.
-fn conjugate_gradients(rows: &[Row], b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
+fn conjugate_gradients(rows: &Matrix, b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
     let n = x.len();
     // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
     // dot products are the chunks', added in order).
     let apply = |p: &[DVec3], out: &mut [DVec3]| {
-        out.par_chunks_mut(CHUNK).zip(rows.par_chunks(CHUNK)).for_each(|(o, rows)| {
-            for (o, row) in o.iter_mut().zip(rows) {
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
+            for (k, o) in o.iter_mut().enumerate() {
+                let v = i * CHUNK + k;
+                let row = &rows.entries[rows.start[v] as usize..rows.start[v + 1] as usize];
                 *o = row.iter().fold(DVec3::ZERO, |s, &(c, a)| s + p[c as usize] * a);
             }
         });
