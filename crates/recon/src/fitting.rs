@@ -49,18 +49,28 @@ pub(crate) const STIFFNESS: f64 = 1e-3;
 pub(crate) const MEMBRANE: f64 = 0.03;
 
 /// Conjugate-gradient iterations per pass at most.
-const CG_ITERATIONS: usize = 8;
+const CG_ITERATIONS: usize = 5;
 
 /// Relative residual at which conjugate gradients stop.
 const CG_TOLERANCE: f64 = 1e-3;
 
-/// The 27 voxel offsets of a 3x3x3 block.
-const NEIGHBOURS: [[i32; 3]; 27] = {
+/// The 27 voxel offsets of a 3x3x3 block, nearest first: the voxel, its 6 side neighbours, the
+/// 12 edge and the 8 corner neighbours.
+const BY_RING: [[i32; 3]; 27] = {
     let mut out = [[0; 3]; 27];
-    let mut i = 0;
-    while i < 27 {
-        out[i] = [(i % 3) as i32 - 1, ((i / 3) % 3) as i32 - 1, (i / 9) as i32 - 1];
-        i += 1;
+    let mut n = 0;
+    let mut ring = 0;
+    while ring <= 3 {
+        let mut i: i32 = 0;
+        while i < 27 {
+            let d = [i % 3 - 1, (i / 3) % 3 - 1, i / 9 - 1];
+            if d[0].abs() + d[1].abs() + d[2].abs() == ring {
+                out[n] = d;
+                n += 1;
+            }
+            i += 1;
+        }
+        ring += 1;
     }
     out
 };
@@ -125,38 +135,14 @@ pub(crate) fn fit(
             }
         }
     }
-    // Candidate faces of every voxel: the faces of the 27 voxels around it, ascending.
-    let level = grid.level;
-    let candidates: Vec<Vec<u32>> = grid
-        .keys
-        .par_iter()
-        .map(|&code| {
-            let mut out = Vec::new();
-            // The voxel's own faces and its six neighbours' (the faces of the voxels further
-            // out only when these have none): later passes walk from each foot to the faces
-            // around it, so a first foot one face away from the nearest is corrected there.
-            for ring in 0..=3 {
-                if ring == 2 && !out.is_empty() {
-                    break;
-                }
-                for d in NEIGHBOURS.iter().filter(|d| d.iter().map(|c| c.abs()).sum::<i32>() == ring) {
-                    let Some(n) = offset(code, *d, level) else { continue };
-                    if let Some(i) = grid.find(n) {
-                        out.extend_from_slice(&faces_of[first[i] as usize..first[i + 1] as usize]);
-                    }
-                }
-            }
-            out
-        })
-        .collect();
-    drop(faces_of);
     let total = input.points.len();
     let stride = total.div_ceil((samples.max(1) as usize).saturating_mul(quads.len())).max(1);
     let incidence = Incidence::new(quads, positions.len());
     // The first projection searches the faces around each sample's voxel; later ones the faces
     // around the previous foot (the mesh moved little).
-    let mut feet = project(input, &candidates, quads, positions, stride);
-    drop(candidates);
+    let faces = VoxelFaces { first: &first, faces: &faces_of };
+    let mut feet = project(input, &faces, quads, positions, stride);
+    drop(faces_of);
     if feet.is_empty() {
         return (0.0, 0.0);
     }
@@ -253,7 +239,38 @@ fn box_d2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
 }
 
 /// The nearest mesh point of every sample (every `stride`-th point), in point order.
-fn project(input: &Input<'_>, candidates: &[Vec<u32>], quads: &[[u32; 4]], x: &[DVec3], stride: usize) -> Vec<Foot> {
+/// The faces of every voxel of the grid: voxel `i`'s are `faces[first[i]..first[i + 1]]`.
+struct VoxelFaces<'a> {
+    first: &'a [u32],
+    faces: &'a [u32],
+}
+
+impl VoxelFaces<'_> {
+    /// Appends to `out` the candidate faces of voxel `code` of `grid`: its own and its six side
+    /// neighbours', or when these have none those of all 26 neighbours. (Later passes walk from
+    /// each foot to the faces around it, so a first foot one face away from the nearest is
+    /// corrected there.)
+    fn candidates(&self, grid: &Cells, code: u64, out: &mut Vec<u32>) {
+        out.clear();
+        for (k, d) in BY_RING.iter().enumerate() {
+            if k == 7 && !out.is_empty() {
+                break;
+            }
+            let Some(n) = offset(code, *d, grid.level) else { continue };
+            if let Some(i) = grid.find(n) {
+                out.extend_from_slice(&self.faces[self.first[i] as usize..self.first[i + 1] as usize]);
+            }
+        }
+    }
+}
+
+fn project(
+    input: &Input<'_>,
+    voxel_faces: &VoxelFaces<'_>,
+    quads: &[[u32; 4]],
+    x: &[DVec3],
+    stride: usize,
+) -> Vec<Foot> {
     let splits = splits(quads, x);
     let boxes: Vec<(DVec3, DVec3)> = quads
         .par_iter()
@@ -266,20 +283,24 @@ fn project(input: &Input<'_>, candidates: &[Vec<u32>], quads: &[[u32; 4]], x: &[
     let per_voxel: Vec<Vec<Foot>> = (0..grid.len())
         .into_par_iter()
         .with_min_len(64)
-        .map(|i| {
-            let cands = &candidates[i];
+        .map_init(Vec::new, |cands, i| {
             let mut out = Vec::new();
+            let r = grid.range(i);
+            // Voxels without a sample need no candidates.
+            if r.start.div_ceil(stride) * stride >= r.end {
+                return out;
+            }
+            voxel_faces.candidates(grid, grid.keys[i], cands);
             if cands.is_empty() {
                 return out;
             }
-            let r = grid.range(i);
             // Samples at multiples of the stride (the same points whatever the voxels).
             let start = r.start.div_ceil(stride) * stride;
             for k in (start..r.end).step_by(stride) {
                 let p = input.points[k].as_dvec3();
                 let mut best = f64::INFINITY;
                 let mut foot = Foot { face: u32::MAX, weights: [0.0; 4], point: p };
-                for &f in cands {
+                for &f in cands.iter() {
                     let (lo, hi) = boxes[f as usize];
                     if box_d2(p, lo, hi) < best {
                         nearest_on_face(p, f, &quads[f as usize], x, splits[f as usize], &mut best, &mut foot);
@@ -350,8 +371,11 @@ fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &mut [DVec3]) {
 /// `(column, value)`.
 struct Matrix {
     start: Vec<u32>,
-    entries: Vec<(u32, f64)>,
+    entries: Vec<Entry>,
 }
+
+/// A matrix entry: `(column, value)`.
+type Entry = (u32, f64);
 
 /// The pass's system: the matrix's rows, the right-hand side and the diagonal.
 fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (Matrix, Vec<DVec3>, Vec<f64>) {
@@ -417,12 +441,13 @@ fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (M
         .collect();
     // The matrix's rows, assembled once: every face corner adds its 4x4 block's row and its two
     // membrane edges; the entries of a column are summed in corner order.
-    let parts: Vec<(Vec<u32>, Vec<(u32, f64)>)> = (0..n)
+    // Per chunk of rows: their lengths and entries.
+    let parts: Vec<(Vec<u32>, Vec<Entry>)> = (0..n)
         .collect::<Vec<usize>>()
         .par_chunks(CHUNK)
         .map(|vs| {
             let mut lens = Vec::with_capacity(vs.len());
-            let mut entries: Vec<(u32, f64)> = Vec::with_capacity(10 * vs.len());
+            let mut entries: Vec<Entry> = Vec::with_capacity(10 * vs.len());
             for &v in vs {
                 let row_start = entries.len();
                 // Adds `a` to column `c` (a row has about 9 columns: a linear search is cheapest).
