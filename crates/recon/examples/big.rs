@@ -58,6 +58,10 @@ fn main() {
     if let Some(n) = std::env::var("OCTOWRAP_FIT_PASSES").ok().and_then(|s| s.parse().ok()) {
         o.fit_passes = n;
     }
+    // OCTOWRAP_QUADRIC=0 or 1 sets the wrapped levels' mapping (plane or quadric), for profiling.
+    if let Some(q) = std::env::var("OCTOWRAP_QUADRIC").ok().and_then(|s| s.parse::<u8>().ok()) {
+        o.quadric_mapping = q != 0;
+    }
     let t = Instant::now();
     // OCTOWRAP_HWM=1: the peak resident memory so far at the start of every stage.
     let hwm = std::env::var_os("OCTOWRAP_HWM").is_some();
