@@ -108,3 +108,27 @@ fn region_levels_refine_dense_regions_past_the_limit_and_stay_manifold() {
         assert!(text(&out.stderr).contains("region-density"), "{bad}: {}", text(&out.stderr));
     }
 }
+
+#[test]
+fn fit_passes_zero_keeps_the_papers_mapping_and_the_same_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = kitten();
+    let run = |name: &str, extra: &[&str]| {
+        let p = dir.path().join(name);
+        let mut a = vec!["reconstruct", input.to_str().unwrap(), "-o", p.to_str().unwrap()];
+        a.extend_from_slice(extra);
+        let out = octowrap(&a);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        octowrap_io::read_path(&p, &octowrap_io::ReadOptions::default()).unwrap()
+    };
+    let fitted = run("fit.ply", &[]);
+    let plain = run("plain.ply", &["--fit-passes", "0"]);
+    let capped = run("capped.ply", &["--fit-max-faces", "10"]);
+    // The fit moves vertices only: the same faces, other positions; a face limit below the
+    // finest level's faces leaves it as the paper's mapping puts it.
+    assert_eq!(fitted.faces, plain.faces);
+    assert_ne!(fitted.vertices.positions, plain.vertices.positions);
+    assert_eq!(capped.vertices.positions, plain.vertices.positions);
+    let out = octowrap(&["reconstruct", input.to_str().unwrap(), "-o", "x.ply", "--fit-passes", "many"]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+}
