@@ -41,6 +41,35 @@ pub(crate) struct BadEdge {
     pub diagonal: Option<(u64, u64)>,
 }
 
+/// The face corners of every vertex, grouped by vertex in face order (a counting sort):
+/// `values[first[v]..first[v + 1]]` holds `value(face, corner, quad)` for each corner of vertex
+/// `v` among `n`. Relaxation, mapping and the fit all build their per-vertex lists this way.
+pub(crate) fn corners_by_vertex<T: Copy + Default>(
+    quads: &[[u32; 4]],
+    n: usize,
+    value: impl Fn(usize, usize, &[u32; 4]) -> T,
+) -> (Vec<u32>, Vec<T>) {
+    let mut first = vec![0u32; n + 1];
+    for q in quads {
+        for &v in q {
+            first[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        first[i + 1] += first[i];
+    }
+    let mut values = vec![T::default(); first[n] as usize];
+    let mut fill = first[..n].to_vec();
+    for (f, q) in quads.iter().enumerate() {
+        for (k, &v) in q.iter().enumerate() {
+            let at = &mut fill[v as usize];
+            values[*at as usize] = value(f, k, q);
+            *at += 1;
+        }
+    }
+    (first, values)
+}
+
 fn find(parent: &mut [u32], mut x: u32) -> u32 {
     let mut root = x;
     while parent[root as usize] != root {

@@ -39,6 +39,7 @@ use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, closest_on_triangle};
 use rayon::prelude::*;
 
+use crate::extract::corners_by_vertex;
 use crate::lattice::offset;
 use crate::octree::Cells;
 
@@ -325,23 +326,7 @@ struct Incidence {
 
 impl Incidence {
     fn new(quads: &[[u32; 4]], n: usize) -> Self {
-        let mut first = vec![0u32; n + 1];
-        for q in quads {
-            for &v in q {
-                first[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            first[i + 1] += first[i];
-        }
-        let mut corners = vec![(0u32, 0u8); first[n] as usize];
-        let mut fill = first.clone();
-        for (f, q) in quads.iter().enumerate() {
-            for (k, &v) in q.iter().enumerate() {
-                corners[fill[v as usize] as usize] = (f as u32, k as u8);
-                fill[v as usize] += 1;
-            }
-        }
+        let (first, corners) = corners_by_vertex(quads, n, |f, k, _| (f as u32, k as u8));
         Self { first, corners }
     }
 

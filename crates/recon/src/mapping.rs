@@ -37,6 +37,7 @@ use octowrap_geom::{DVec3, Moments, morton};
 use rayon::prelude::*;
 
 use crate::cellmoments::{ChildMoments, Units};
+use crate::extract::corners_by_vertex;
 use crate::lattice::block;
 use crate::octree::{Cells, Octree};
 
@@ -224,24 +225,8 @@ pub(crate) fn map_wrapped(
 /// all (vertex, voxel) pairs gave, without that sort (0.56 G instructions at the 4.3 M case's
 /// level 8).
 fn fans(quads: &[[u32; 4]], face_cells: &[u32], n: usize) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
-    let mut first = vec![0u32; n + 1];
-    for q in quads {
-        for &v in q {
-            first[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        first[i + 1] += first[i];
-    }
-    let mut fan = vec![0u32; first[n] as usize];
-    let mut end = first[..n].to_vec();
-    for (q, &c) in quads.iter().zip(face_cells) {
-        for &v in q {
-            let at = &mut end[v as usize];
-            fan[*at as usize] = c;
-            *at += 1;
-        }
-    }
+    let (first, mut fan) = corners_by_vertex(quads, n, |f, _, _| face_cells[f]);
+    let mut end = first[1..].to_vec();
     for (v, e) in end.iter_mut().enumerate() {
         let list = &mut fan[first[v] as usize..*e as usize];
         list.sort_unstable();

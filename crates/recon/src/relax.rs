@@ -17,6 +17,7 @@
 use octowrap_geom::DVec3;
 use rayon::prelude::*;
 
+use crate::extract::corners_by_vertex;
 use crate::mapping::TangentPlane;
 
 /// Runs `passes` relaxation passes over the quads.
@@ -25,28 +26,9 @@ pub(crate) fn relax(positions: &mut [DVec3], planes: &[Option<TangentPlane>], qu
         return;
     }
     let n = positions.len();
-    // Corner incidences per vertex, in face order: `first[v]..first[v + 1]`.
-    let mut first = vec![0u32; n + 1];
-    for q in quads {
-        for &v in q {
-            first[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        first[i + 1] += first[i];
-    }
-    // The two neighbouring corners of every corner incidence (8 bytes per corner).
-    let mut neighbours = vec![[0u32; 2]; 4 * quads.len()];
-    {
-        let mut fill = first.clone();
-        for q in quads {
-            for (k, &v) in q.iter().enumerate() {
-                let at = &mut fill[v as usize];
-                neighbours[*at as usize] = [q[(k + 1) % 4], q[(k + 3) % 4]];
-                *at += 1;
-            }
-        }
-    }
+    // The two neighbouring corners of every corner incidence, per vertex in face order:
+    // `neighbours[first[v]..first[v + 1]]` (8 bytes per corner).
+    let (first, neighbours) = corners_by_vertex(quads, n, |_, k, q| [q[(k + 1) % 4], q[(k + 3) % 4]]);
     let pass = |old: &[DVec3], new: &mut [DVec3]| {
         new.par_iter_mut().enumerate().for_each(|(v, out)| {
             let around = &neighbours[first[v] as usize..first[v + 1] as usize];
