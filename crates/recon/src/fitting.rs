@@ -102,18 +102,11 @@ struct Foot {
 }
 
 /// Fits `positions` to the points for `passes` passes, with about `samples` sample points per
-/// face. Returns the samples' mean squared distance to the mesh before and after (for reports
-/// and tests), `(0, 0)` when nothing was fitted.
-pub(crate) fn fit(
-    input: &Input<'_>,
-    quads: &[[u32; 4]],
-    positions: &mut [DVec3],
-    passes: u32,
-    samples: u32,
-) -> (f64, f64) {
+/// face.
+pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3], passes: u32, samples: u32) {
     let grid = input.grid;
     if passes == 0 || quads.is_empty() || input.points.is_empty() || grid.len() == 0 {
-        return (0.0, 0.0);
+        return;
     }
     // Faces per voxel (counting sort, faces ascending in each voxel).
     let nv = grid.len();
@@ -145,33 +138,14 @@ pub(crate) fn fit(
     let mut feet = project(input, &faces, quads, positions, stride);
     drop(faces_of);
     if feet.is_empty() {
-        return (0.0, 0.0);
+        return;
     }
-    let before = mean_d2(&feet, quads, positions);
     for pass in 0..passes {
         if pass > 0 {
             reproject(&mut feet, &incidence, quads, positions, &splits(quads, positions));
         }
         solve(&feet, quads, &incidence, positions);
     }
-    (before, mean_d2(&feet, quads, positions))
-}
-
-/// Mean squared distance of the samples to their feet.
-fn mean_d2(feet: &[Foot], quads: &[[u32; 4]], x: &[DVec3]) -> f64 {
-    let sums: Vec<f64> = feet
-        .par_chunks(CHUNK)
-        .map(|c| {
-            c.iter()
-                .map(|f| {
-                    let q = quads[f.face as usize];
-                    let at = (0..4).fold(DVec3::ZERO, |s, k| s + x[q[k] as usize] * f.weights[k]);
-                    at.distance_squared(f.point)
-                })
-                .sum::<f64>()
-        })
-        .collect();
-    sums.iter().sum::<f64>() / feet.len() as f64
 }
 
 /// Moves every foot to the nearest point of its face or, when it lies on the face's border
