@@ -132,6 +132,7 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
     let total = input.points.len();
     let stride = total.div_ceil((samples.max(1) as usize).saturating_mul(quads.len())).max(1);
     let incidence = Incidence::new(quads, positions.len());
+    let pattern = Pattern::new(quads, &incidence);
     // The first projection searches the faces around each sample's voxel; later ones the faces
     // around the previous foot (the mesh moved little).
     let faces = VoxelFaces { first: &first, faces: &faces_of };
@@ -144,7 +145,7 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
         if pass > 0 {
             reproject(&mut feet, &incidence, quads, positions, &splits(quads, positions));
         }
-        solve(&feet, quads, &incidence, positions);
+        solve(&feet, quads, &incidence, &pattern, positions);
     }
 }
 
@@ -321,23 +322,85 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> DVec3 {
 
 /// Solves the pass's least-squares system for `x` (its current value is the regulariser's
 /// target and the start).
-fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &mut [DVec3]) {
-    let (rows, b, diag) = system(feet, quads, inc, x);
-    conjugate_gradients(&rows, &b, &diag, x);
+fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, pattern: &Pattern, x: &mut [DVec3]) {
+    let (values, b, diag) = system(feet, quads, inc, pattern, x);
+    conjugate_gradients(pattern, &values, &b, &diag, x);
 }
 
-/// The pass's matrix, row by row: row `v` is `entries[start[v]..start[v + 1]]`, each
-/// `(column, value)`.
-struct Matrix {
+/// The matrix's sparsity pattern, the same in every pass (the connectivity is fixed): row `v`
+/// has the columns `columns[start[v]..start[v + 1]]`: `v` itself, then the corners of its faces
+/// in face-corner order, each once. `at[i]` gives, for face corner `i` of the incidence lists,
+/// the place in its vertex's row of each of the face's four corners.
+struct Pattern {
     start: Vec<u32>,
-    entries: Vec<Entry>,
+    columns: Vec<u32>,
+    at: Vec<[u16; 4]>,
 }
 
-/// A matrix entry: `(column, value)`.
-type Entry = (u32, f64);
+impl Pattern {
+    fn new(quads: &[[u32; 4]], inc: &Incidence) -> Self {
+        let n = inc.first.len() - 1;
+        // Per chunk of rows: their lengths, columns and places.
+        let parts: Vec<(Vec<u32>, Vec<u32>, Vec<[u16; 4]>)> = (0..n)
+            .collect::<Vec<usize>>()
+            .par_chunks(CHUNK)
+            .map(|vs| {
+                let mut lens = Vec::with_capacity(vs.len());
+                let mut columns: Vec<u32> = Vec::with_capacity(10 * vs.len());
+                let mut at = Vec::with_capacity(4 * vs.len());
+                for &v in vs {
+                    let row = columns.len();
+                    columns.push(v as u32);
+                    for &(f, _) in inc.of(v) {
+                        let mut places = [0u16; 4];
+                        for (c, &w) in quads[f as usize].iter().enumerate() {
+                            let k = match columns[row..].iter().position(|&e| e == w) {
+                                Some(k) => k,
+                                None => {
+                                    columns.push(w);
+                                    columns.len() - 1 - row
+                                }
+                            };
+                            // A row has about 9 columns; u16 holds any vertex's (a vertex in
+                            // 16,000 faces would be needed to overflow it).
+                            places[c] = k.min(usize::from(u16::MAX)) as u16;
+                        }
+                        at.push(places);
+                    }
+                    lens.push((columns.len() - row) as u32);
+                }
+                (lens, columns, at)
+            })
+            .collect();
+        let mut start = Vec::with_capacity(n + 1);
+        start.push(0u32);
+        let mut columns = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+        let mut at = Vec::with_capacity(inc.corners.len());
+        for (lens, c, a) in parts {
+            for l in lens {
+                start.push(start[start.len() - 1] + l);
+            }
+            columns.extend(c);
+            at.extend(a);
+        }
+        Self { start, columns, at }
+    }
 
-/// The pass's system: the matrix's rows, the right-hand side and the diagonal.
-fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (Matrix, Vec<DVec3>, Vec<f64>) {
+    /// Row `v`'s columns.
+    fn row(&self, v: usize) -> std::ops::Range<usize> {
+        self.start[v] as usize..self.start[v + 1] as usize
+    }
+}
+
+/// The pass's system: the matrix's values (in [`Pattern`]'s places), the right-hand side and
+/// the diagonal.
+fn system(
+    feet: &[Foot],
+    quads: &[[u32; 4]],
+    inc: &Incidence,
+    pattern: &Pattern,
+    x: &[DVec3],
+) -> (Vec<f64>, Vec<DVec3>, Vec<f64>) {
     let n = x.len();
     // Per face: the 4x4 sum of weight products and the weighted sum of points, in point order.
     let mut start = vec![0u32; quads.len() + 1];
@@ -384,69 +447,56 @@ fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, x: &[DVec3]) -> (M
             s + (p[v] * 2.0 - p[q[(k + 1) % 4] as usize] - p[q[(k + 3) % 4] as usize])
         })
     };
-    // b = A^T p + m x0 + kappa L x0; diagonal of the matrix for the preconditioner.
+    // Per row, in one walk over its face corners: the right-hand side `b = A^T p + m x0 +
+    // kappa L x0`, the diagonal (for the preconditioner) and the matrix's values. Every face
+    // corner adds its 4x4 block's row and its two membrane edges, in corner order (each entry's
+    // terms are added in the same order as by searching the row for each column).
     let x0 = x;
-    let b: Vec<DVec3> = (0..n)
-        .into_par_iter()
-        .with_min_len(MIN_LEN)
-        .map(|v| {
-            inc.of(v).iter().fold(x0[v] * m + laplacian(x0, v) * kappa, |s, &(f, k)| s + rhs[f as usize][k as usize])
-        })
-        .collect();
-    let diag: Vec<f64> = (0..n)
-        .into_par_iter()
-        .with_min_len(MIN_LEN)
-        .map(|v| inc.of(v).iter().fold(m, |s, &(f, k)| s + gram[f as usize][k as usize][k as usize] + 2.0 * kappa))
-        .collect();
-    // The matrix's rows, assembled once: every face corner adds its 4x4 block's row and its two
-    // membrane edges; the entries of a column are summed in corner order.
-    // Per chunk of rows: their lengths and entries.
-    let parts: Vec<(Vec<u32>, Vec<Entry>)> = (0..n)
-        .collect::<Vec<usize>>()
-        .par_chunks(CHUNK)
-        .map(|vs| {
-            let mut lens = Vec::with_capacity(vs.len());
-            let mut entries: Vec<Entry> = Vec::with_capacity(10 * vs.len());
-            for &v in vs {
-                let row_start = entries.len();
-                // Adds `a` to column `c` (a row has about 9 columns: a linear search is cheapest).
-                let mut add = |c: u32, a: f64| match entries[row_start..].iter_mut().find(|e| e.0 == c) {
-                    Some(e) => e.1 += a,
-                    None => entries.push((c, a)),
-                };
-                add(v as u32, m);
-                for &(f, k) in inc.of(v) {
-                    let q = &quads[f as usize];
+    let mut b = vec![DVec3::ZERO; n];
+    let mut diag = vec![0.0f64; n];
+    let mut values = vec![0.0f64; pattern.columns.len()];
+    let mut rows: Vec<(usize, &mut [f64])> = Vec::with_capacity(n.div_ceil(CHUNK));
+    let mut rest = values.as_mut_slice();
+    for first in (0..n).step_by(CHUNK) {
+        let last = (first + CHUNK).min(n);
+        let len = (pattern.start[last] - pattern.start[first]) as usize;
+        let (here, tail) = rest.split_at_mut(len);
+        rows.push((first, here));
+        rest = tail;
+    }
+    rows.into_par_iter().zip(b.par_chunks_mut(CHUNK)).zip(diag.par_chunks_mut(CHUNK)).for_each(
+        |(((first, out), b), diag)| {
+            let base = pattern.start[first] as usize;
+            for (i, v) in (first..(first + CHUNK).min(n)).enumerate() {
+                let span = pattern.row(v);
+                let row = &mut out[span.start - base..span.end - base];
+                row[0] = m;
+                let (mut rhs_v, mut diag_v) = (x0[v] * m + laplacian(x0, v) * kappa, m);
+                let corners = inc.first[v] as usize;
+                for (i, &(f, k)) in inc.of(v).iter().enumerate() {
+                    let places = pattern.at[corners + i];
                     let k = k as usize;
                     let g = &gram[f as usize][k];
+                    rhs_v += rhs[f as usize][k];
+                    diag_v = diag_v + g[k] + 2.0 * kappa;
                     for c in 0..4 {
-                        add(q[c], g[c]);
+                        row[places[c] as usize] += g[c];
                     }
-                    add(v as u32, 2.0 * kappa);
-                    add(q[(k + 1) % 4], -kappa);
-                    add(q[(k + 3) % 4], -kappa);
+                    row[0] += 2.0 * kappa;
+                    row[places[(k + 1) % 4] as usize] -= kappa;
+                    row[places[(k + 3) % 4] as usize] -= kappa;
                 }
-                lens.push((entries.len() - row_start) as u32);
+                b[i] = rhs_v;
+                diag[i] = diag_v;
             }
-            (lens, entries)
-        })
-        .collect();
-    let mut start = Vec::with_capacity(n + 1);
-    start.push(0u32);
-    let mut entries = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
-    for (lens, e) in parts {
-        for l in lens {
-            start.push(start[start.len() - 1] + l);
-        }
-        entries.extend(e);
-    }
-    let rows = Matrix { start, entries };
-    (rows, b, diag)
+        },
+    );
+    (values, b, diag)
 }
 
 /// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
 /// coordinates at once.
-fn conjugate_gradients(rows: &Matrix, b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
+fn conjugate_gradients(pattern: &Pattern, values: &[f64], b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
     let n = x.len();
     // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
     // dot products are the chunks', added in order).
@@ -454,8 +504,11 @@ fn conjugate_gradients(rows: &Matrix, b: &[DVec3], diag: &[f64], x: &mut [DVec3]
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
             for (k, o) in o.iter_mut().enumerate() {
                 let v = i * CHUNK + k;
-                let row = &rows.entries[rows.start[v] as usize..rows.start[v + 1] as usize];
-                *o = row.iter().fold(DVec3::ZERO, |s, &(c, a)| s + p[c as usize] * a);
+                let row = pattern.row(v);
+                *o = pattern.columns[row.clone()]
+                    .iter()
+                    .zip(&values[row])
+                    .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
             }
         });
     };
