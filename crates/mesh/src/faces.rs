@@ -62,18 +62,12 @@ impl FaceList {
 
     /// A list of quads.
     pub fn from_quads(quads: &[[u32; 4]]) -> Self {
-        Self {
-            offsets: (0..=quads.len() as u32).map(|i| i * 4).collect(),
-            indices: quads.iter().flatten().copied().collect(),
-        }
+        Self { offsets: (0..=quads.len() as u32).map(|i| i * 4).collect(), indices: quads.as_flattened().to_vec() }
     }
 
     /// A list of triangles.
     pub fn from_triangles(tris: &[[u32; 3]]) -> Self {
-        Self {
-            offsets: (0..=tris.len() as u32).map(|i| i * 3).collect(),
-            indices: tris.iter().flatten().copied().collect(),
-        }
+        Self { offsets: (0..=tris.len() as u32).map(|i| i * 3).collect(), indices: tris.as_flattened().to_vec() }
     }
 
     /// Appends a face. The face-size rule (3 or more) is checked by [`FaceList::check`], not here,

@@ -337,11 +337,14 @@ struct Pattern {
     at: Vec<[u16; 4]>,
 }
 
+/// A chunk of [`Pattern`]'s rows: their lengths, columns and places.
+type PatternPart = (Vec<u32>, Vec<u32>, Vec<[u16; 4]>);
+
 impl Pattern {
     fn new(quads: &[[u32; 4]], inc: &Incidence) -> Self {
         let n = inc.first.len() - 1;
         // Per chunk of rows: their lengths, columns and places.
-        let parts: Vec<(Vec<u32>, Vec<u32>, Vec<[u16; 4]>)> = (0..n)
+        let parts: Vec<PatternPart> = (0..n)
             .collect::<Vec<usize>>()
             .par_chunks(CHUNK)
             .map(|vs| {
@@ -354,13 +357,10 @@ impl Pattern {
                     for &(f, _) in inc.of(v) {
                         let mut places = [0u16; 4];
                         for (c, &w) in quads[f as usize].iter().enumerate() {
-                            let k = match columns[row..].iter().position(|&e| e == w) {
-                                Some(k) => k,
-                                None => {
-                                    columns.push(w);
-                                    columns.len() - 1 - row
-                                }
-                            };
+                            let k = columns[row..].iter().position(|&e| e == w).unwrap_or_else(|| {
+                                columns.push(w);
+                                columns.len() - 1 - row
+                            });
                             // A row has about 9 columns; u16 holds any vertex's (a vertex in
                             // 16,000 faces would be needed to overflow it).
                             places[c] = k.min(usize::from(u16::MAX)) as u16;

@@ -65,11 +65,14 @@
 //!   linked faces around each lattice point, so they are manifold; a remaining pinched diagonal
 //!   edge has its decision flipped (the edge split).
 //! * **Vertex mapping (§3.6)**: `W` = the voxels of the vertex's fan; the `2|p - v| < l` filter;
-//!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped. By default
-//!   ([`ReconOptions::quadric_mapping`]) a wrapped level's vertex goes instead onto a weighted
-//!   height-field quadric of `W`'s points within one edge (Gaussian weights of half an edge): on
-//!   the bunny 3-8 % closer to the points than the paper's plane at levels 1-5, on the dragon
-//!   1-5 % at levels 2-7 (4 % worse at level 1), for about 30 % more time; the plane remains the fallback under 10 points.
+//!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped. The
+//!   paper's plane is the default; [`ReconOptions::quadric_mapping`] puts a wrapped level's
+//!   vertex instead onto a weighted height-field quadric of `W`'s points within one edge
+//!   (Gaussian weights of half an edge). Without the fit below, the quadric was 3-8 % closer to
+//!   the points on the bunny at levels 1-5 and 1-5 % on the dragon at levels 2-7, for about 30 %
+//!   more mapping time; with the fit, the plane is as close (within 1-3 %, better or worse by
+//!   level; `tools/bench/RESULTS.md`) and the whole reconstruction 4-6 % cheaper, so the plane
+//!   became the default again.
 //! * **Relaxation (§3.6.1)**: Laplacian to the one-ring centroid, then re-projection on the
 //!   vertex's own plane. The paper relaxes every level; measured (`tools/bench/RESULTS.md`), it
 //!   lowers the bunny's points-to-mesh error by up to 19 % from level 4 on but raises it by up to
@@ -226,8 +229,9 @@ pub struct ReconOptions {
     pub max_faces: u64,
     /// Map the vertices of wrapped levels onto a weighted height-field quadric of the points
     /// within one voxel edge (Gaussian weights of half an edge, in the weighted plane's frame;
-    /// the paper's plane under 10 points) instead of the paper's plane (§3.6). Default true:
-    /// see `tools/bench/RESULTS.md` for the measured gain.
+    /// the paper's plane under 10 points) instead of the paper's plane (§3.6). Default false:
+    /// with the least-squares fit ([`ReconOptions::fit_passes`]) the plane is as close to the
+    /// points and cheaper (see `tools/bench/RESULTS.md`).
     pub quadric_mapping: bool,
     /// Fill one-voxel gaps of sparsely sampled sheets before wrapping a level (from level 2 on):
     /// an empty voxel on the surface with at least 3 of its 4 in-plane neighbours occupied by at
@@ -272,7 +276,7 @@ impl Default for ReconOptions {
             padding: 0.01,
             min_median_points: 8.0,
             sparse: SparseMode::Subdivide,
-            quadric_mapping: true,
+            quadric_mapping: false,
             fill_gaps: true,
             region_density: 4.0,
             region_levels: 0,

@@ -12,12 +12,13 @@
 //! A vertex with fewer than 3 points even then keeps its place. Moments are accumulated relative
 //! to the vertex, in `f64`, so the fit does not lose precision at fine levels.
 //!
-//! Beyond the paper, and the default ([`crate::ReconOptions::quadric_mapping`]): with at least 10
-//! points of `W` within one edge, the vertex goes onto a weighted height-field quadric instead
-//! (Gaussian weights of half an edge; a weighted plane, then `z(a, b)` of degree 2 over it by
-//! weighted least squares; the vertex moves along the plane normal onto it), which follows curved
-//! surfaces between lattice corners better. Big voxels are sampled with a fixed stride (about 256
-//! points).
+//! Beyond the paper, as an option ([`crate::ReconOptions::quadric_mapping`], off by default):
+//! with at least 10 points of `W` within one edge, the vertex goes onto a weighted height-field
+//! quadric instead (Gaussian weights of half an edge; a weighted plane, then `z(a, b)` of
+//! degree 2 over it by weighted least squares; the vertex moves along the plane normal onto
+//! it), which follows curved surfaces between lattice corners better. Big voxels are sampled
+//! with a fixed stride (about 256 points). Since the least-squares fit ([`crate::fitting`])
+//! moves the vertices afterwards anyway, it no longer pays for its cost.
 //!
 //! Vertices of subdivided levels ([`crate::sparse`]) have no fan voxels of their own. A vertex of
 //! subdivided level `k` (voxel edge `l`) goes onto the plane of the points in the 2x2x2
