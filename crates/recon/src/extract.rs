@@ -18,7 +18,6 @@
 
 use octowrap_geom::morton;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use crate::irregular::Decisions;
 use crate::lattice::{EdgeCase, corners, pair_key, unslot};
@@ -45,69 +44,62 @@ pub(crate) struct BadEdge {
 /// Fewest faces for which [`corners_by_vertex`] runs in parallel.
 const PARALLEL_CORNERS: usize = 1 << 15;
 
-/// Vertices per task when [`corners_by_vertex`] sorts each vertex's corners.
-const CHUNK: usize = 4096;
-
 /// The face corners of every vertex, grouped by vertex in face order (a counting sort):
 /// `values[first[v]..first[v + 1]]` holds `value(face, corner, quad)` for each corner of vertex
 /// `v` among `n`. Relaxation, mapping and the fit all build their per-vertex lists this way.
 ///
-/// Large meshes are sorted in parallel: the counts by atomic increments, the corners' numbers
-/// (`4 face + corner`) scattered by atomic cursors, each vertex's few corners then sorted back
-/// into face order, so the lists are the same whatever the threads (at the 4.3 M point case's
-/// level 10, 8.9 M corners, the sequential sort was a tenth of a second on one core).
+/// Large meshes are sorted in parallel by vertex ranges: each of a few tasks scans all faces
+/// in order and counts, then places, only the corners of its own range of vertices, so every
+/// list is in face order as on one thread (no atomics, no sort afterwards; at the 4.3 M point
+/// case's level 10, 8.9 M corners, the sequential sort was a tenth of a second on one core, and
+/// scanning the faces once more per task is cheap beside the scattered writes).
 pub(crate) fn corners_by_vertex<T: Copy + Default + Send + Sync>(
     quads: &[[u32; 4]],
     n: usize,
     value: impl Fn(usize, usize, &[u32; 4]) -> T + Sync,
 ) -> (Vec<u32>, Vec<T>) {
-    if quads.len() < PARALLEL_CORNERS {
+    let tasks = rayon::current_num_threads().min(8);
+    if quads.len() < PARALLEL_CORNERS || tasks < 2 || n < tasks {
         return corners_by_vertex_sequential(quads, n, value);
     }
-    let counts: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-    quads.par_iter().for_each(|q| {
-        for &v in q {
-            counts[v as usize + 1].fetch_add(1, Relaxed);
+    let part = n.div_ceil(tasks);
+    // Counts at `v + 1`, each task over its own vertices.
+    let mut first = vec![0u32; n + 1];
+    first[1..].par_chunks_mut(part).enumerate().for_each(|(i, counts)| {
+        let lo = i * part;
+        for q in quads {
+            for &v in q {
+                if let Some(c) = (v as usize).checked_sub(lo).and_then(|k| counts.get_mut(k)) {
+                    *c += 1;
+                }
+            }
         }
     });
-    let mut first: Vec<u32> = counts.into_iter().map(AtomicU32::into_inner).collect();
     for i in 0..n {
         first[i + 1] += first[i];
     }
-    let corners: Vec<u32> = {
-        let fill: Vec<AtomicU32> = first[..n].par_iter().map(|&f| AtomicU32::new(f)).collect();
-        let corners: Vec<AtomicU32> = (0..first[n]).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-        quads.par_iter().enumerate().for_each(|(f, q)| {
+    let mut values = vec![T::default(); first[n] as usize];
+    let mut parts: Vec<(usize, &mut [T])> = Vec::with_capacity(tasks);
+    let mut rest = values.as_mut_slice();
+    for lo in (0..n).step_by(part) {
+        let hi = (lo + part).min(n);
+        let (here, tail) = rest.split_at_mut((first[hi] - first[lo]) as usize);
+        parts.push((lo, here));
+        rest = tail;
+    }
+    parts.into_par_iter().for_each(|(lo, out)| {
+        let hi = (lo + part).min(n);
+        let base = first[lo];
+        let mut fill: Vec<u32> = first[lo..hi].iter().map(|&f| f - base).collect();
+        for (f, q) in quads.iter().enumerate() {
             for (k, &v) in q.iter().enumerate() {
-                let at = fill[v as usize].fetch_add(1, Relaxed);
-                corners[at as usize].store((4 * f + k) as u32, Relaxed);
+                if let Some(at) = (v as usize).checked_sub(lo).and_then(|i| fill.get_mut(i)) {
+                    out[*at as usize] = value(f, k, q);
+                    *at += 1;
+                }
             }
-        });
-        let mut corners: Vec<u32> = corners.into_iter().map(AtomicU32::into_inner).collect();
-        // Each vertex's corners back in face order, in chunks of consecutive vertices.
-        let mut parts: Vec<(usize, &mut [u32])> = Vec::with_capacity(n.div_ceil(CHUNK));
-        let mut rest = corners.as_mut_slice();
-        for v in (0..n).step_by(CHUNK) {
-            let end = (v + CHUNK).min(n);
-            let (here, tail) = rest.split_at_mut((first[end] - first[v]) as usize);
-            parts.push((v, here));
-            rest = tail;
         }
-        parts.into_par_iter().for_each(|(v0, part)| {
-            let base = first[v0];
-            for v in v0..(v0 + CHUNK).min(n) {
-                part[(first[v] - base) as usize..(first[v + 1] - base) as usize].sort_unstable();
-            }
-        });
-        corners
-    };
-    let values = corners
-        .par_iter()
-        .map(|&c| {
-            let f = (c / 4) as usize;
-            value(f, (c % 4) as usize, &quads[f])
-        })
-        .collect();
+    });
     (first, values)
 }
 

@@ -141,12 +141,39 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
     if feet.is_empty() {
         return;
     }
+    // The passes' arrays, allocated once (fresh pages cost a page fault each: at the 4.3 M
+    // point case's level 7 the passes' own arrays were 40 MB of faults).
+    let mut work = Work::default();
     for pass in 0..passes {
         if pass > 0 {
-            reproject(&mut feet, &incidence, quads, positions, &splits(quads, positions));
+            splits_into(quads, positions, &mut work.splits);
+            reproject(&mut feet, &incidence, quads, positions, &work.splits);
         }
-        solve(&feet, quads, &incidence, &pattern, positions);
+        system(&feet, quads, &incidence, &pattern, positions, &mut work);
+        conjugate_gradients(&pattern, positions, &mut work);
     }
+}
+
+/// The arrays of a pass, kept from pass to pass.
+#[derive(Default)]
+struct Work {
+    /// [`splits`] of the current positions.
+    splits: Vec<bool>,
+    /// The feet grouped by face: face `f`'s are `order[start[f]..start[f + 1]]`.
+    start: Vec<u32>,
+    order: Vec<u32>,
+    /// Per face, the 4x4 sum of its feet's weight products and their weighted sums.
+    gram: Vec<[[f64; 4]; 4]>,
+    rhs: Vec<[DVec3; 4]>,
+    /// The matrix's values (in [`Pattern`]'s places), right-hand side and diagonal.
+    values: Vec<f64>,
+    b: Vec<DVec3>,
+    diag: Vec<f64>,
+    /// Conjugate gradients' vectors.
+    ap: Vec<DVec3>,
+    r: Vec<DVec3>,
+    z: Vec<DVec3>,
+    p: Vec<DVec3>,
 }
 
 /// Moves every foot to the nearest point of its face or, when it lies on the face's border
@@ -198,13 +225,18 @@ fn nearest_on_face(p: DVec3, f: u32, q: &[u32; 4], x: &[DVec3], other: bool, bes
 /// Per face, whether it splits along its `1-3` diagonal (the shorter one; `0-2` on a tie), as
 /// [`octowrap_mesh::Mesh::triangles`] splits it.
 fn splits(quads: &[[u32; 4]], x: &[DVec3]) -> Vec<bool> {
-    quads
-        .par_iter()
-        .map(|q| {
-            let p = |k: usize| x[q[k] as usize];
-            p(0).distance_squared(p(2)) > p(1).distance_squared(p(3))
-        })
-        .collect()
+    let mut out = Vec::new();
+    splits_into(quads, x, &mut out);
+    out
+}
+
+/// [`splits`] into `out`.
+fn splits_into(quads: &[[u32; 4]], x: &[DVec3], out: &mut Vec<bool>) {
+    out.resize(quads.len(), false);
+    out.par_iter_mut().zip(quads.par_iter()).for_each(|(s, q)| {
+        let p = |k: usize| x[q[k] as usize];
+        *s = p(0).distance_squared(p(2)) > p(1).distance_squared(p(3));
+    });
 }
 
 /// Squared distance from `p` to the box `[lo, hi]`.
@@ -320,13 +352,6 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> DVec3 {
     parts.iter().copied().sum()
 }
 
-/// Solves the pass's least-squares system for `x` (its current value is the regulariser's
-/// target and the start).
-fn solve(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, pattern: &Pattern, x: &mut [DVec3]) {
-    let (values, b, diag) = system(feet, quads, inc, pattern, x);
-    conjugate_gradients(pattern, &values, &b, &diag, x);
-}
-
 /// The matrix's sparsity pattern, the same in every pass (the connectivity is fixed): row `v`
 /// has the columns `columns[start[v]..start[v + 1]]`: `v` itself, then the corners of its faces
 /// in face-corner order, each once. `at[i]` gives, for face corner `i` of the incidence lists,
@@ -392,25 +417,22 @@ impl Pattern {
     }
 }
 
-/// The pass's system: the matrix's values (in [`Pattern`]'s places), the right-hand side and
-/// the diagonal.
-fn system(
-    feet: &[Foot],
-    quads: &[[u32; 4]],
-    inc: &Incidence,
-    pattern: &Pattern,
-    x: &[DVec3],
-) -> (Vec<f64>, Vec<DVec3>, Vec<f64>) {
+/// The pass's system, into `work`: the matrix's values (in [`Pattern`]'s places), the
+/// right-hand side and the diagonal.
+fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, pattern: &Pattern, x: &[DVec3], work: &mut Work) {
     let n = x.len();
     // Per face: the 4x4 sum of weight products and the weighted sum of points, in point order.
-    let mut start = vec![0u32; quads.len() + 1];
+    let start = &mut work.start;
+    start.clear();
+    start.resize(quads.len() + 1, 0);
     for f in feet {
         start[f.face as usize + 1] += 1;
     }
     for i in 0..quads.len() {
         start[i + 1] += start[i];
     }
-    let mut order = vec![0u32; feet.len()];
+    let order = &mut work.order;
+    order.resize(feet.len(), 0);
     {
         let mut fill = start.clone();
         for (i, f) in feet.iter().enumerate() {
@@ -418,24 +440,24 @@ fn system(
             fill[f.face as usize] += 1;
         }
     }
-    let (gram, rhs): (Vec<[[f64; 4]; 4]>, Vec<[DVec3; 4]>) = (0..quads.len())
-        .into_par_iter()
-        .map(|f| {
-            let mut g = [[0.0; 4]; 4];
-            let mut r = [DVec3::ZERO; 4];
-            for &i in &order[start[f] as usize..start[f + 1] as usize] {
-                let foot = &feet[i as usize];
-                let w = foot.weights;
-                for a in 0..4 {
-                    r[a] += foot.point * w[a];
-                    for b in 0..4 {
-                        g[a][b] += w[a] * w[b];
-                    }
+    let (start, order) = (&work.start, &work.order);
+    work.gram.resize(quads.len(), [[0.0; 4]; 4]);
+    work.rhs.resize(quads.len(), [DVec3::ZERO; 4]);
+    work.gram.par_iter_mut().zip(work.rhs.par_iter_mut()).enumerate().for_each(|(f, (g, r))| {
+        *g = [[0.0; 4]; 4];
+        *r = [DVec3::ZERO; 4];
+        for &i in &order[start[f] as usize..start[f + 1] as usize] {
+            let foot = &feet[i as usize];
+            let w = foot.weights;
+            for a in 0..4 {
+                r[a] += foot.point * w[a];
+                for b in 0..4 {
+                    g[a][b] += w[a] * w[b];
                 }
             }
-            (g, r)
-        })
-        .unzip();
+        }
+    });
+    let (gram, rhs) = (&work.gram, &work.rhs);
     let per_vertex = feet.len() as f64 / n as f64;
     let m = STIFFNESS * per_vertex;
     let kappa = MEMBRANE * per_vertex;
@@ -452,11 +474,11 @@ fn system(
     // corner adds its 4x4 block's row and its two membrane edges, in corner order (each entry's
     // terms are added in the same order as by searching the row for each column).
     let x0 = x;
-    let mut b = vec![DVec3::ZERO; n];
-    let mut diag = vec![0.0f64; n];
-    let mut values = vec![0.0f64; pattern.columns.len()];
+    work.b.resize(n, DVec3::ZERO);
+    work.diag.resize(n, 0.0);
+    work.values.resize(pattern.columns.len(), 0.0);
     let mut rows: Vec<(usize, &mut [f64])> = Vec::with_capacity(n.div_ceil(CHUNK));
-    let mut rest = values.as_mut_slice();
+    let mut rest = work.values.as_mut_slice();
     for first in (0..n).step_by(CHUNK) {
         let last = (first + CHUNK).min(n);
         let len = (pattern.start[last] - pattern.start[first]) as usize;
@@ -464,12 +486,13 @@ fn system(
         rows.push((first, here));
         rest = tail;
     }
-    rows.into_par_iter().zip(b.par_chunks_mut(CHUNK)).zip(diag.par_chunks_mut(CHUNK)).for_each(
+    rows.into_par_iter().zip(work.b.par_chunks_mut(CHUNK)).zip(work.diag.par_chunks_mut(CHUNK)).for_each(
         |(((first, out), b), diag)| {
             let base = pattern.start[first] as usize;
             for (i, v) in (first..(first + CHUNK).min(n)).enumerate() {
                 let span = pattern.row(v);
                 let row = &mut out[span.start - base..span.end - base];
+                row.fill(0.0);
                 row[0] = m;
                 let (mut rhs_v, mut diag_v) = (x0[v] * m + laplacian(x0, v) * kappa, m);
                 let corners = inc.first[v] as usize;
@@ -491,13 +514,14 @@ fn system(
             }
         },
     );
-    (values, b, diag)
 }
 
 /// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
 /// coordinates at once.
-fn conjugate_gradients(pattern: &Pattern, values: &[f64], b: &[DVec3], diag: &[f64], x: &mut [DVec3]) {
+fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
     let n = x.len();
+    let Work { values, b, diag, ap, r, z, p, .. } = work;
+    let (values, b, diag) = (&values[..], &b[..], &diag[..]);
     // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
     // dot products are the chunks', added in order).
     let apply = |p: &[DVec3], out: &mut [DVec3]| {
@@ -513,21 +537,23 @@ fn conjugate_gradients(pattern: &Pattern, values: &[f64], b: &[DVec3], diag: &[f
         });
     };
     // Preconditioned conjugate gradients, the three coordinates at once.
-    let mut ap = vec![DVec3::ZERO; n];
-    apply(x, &mut ap);
-    let mut r: Vec<DVec3> = b.iter().zip(&ap).map(|(b, a)| *b - *a).collect();
-    let mut z: Vec<DVec3> = r.iter().zip(diag).map(|(r, d)| *r / *d).collect();
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
-    let mut rr = dot(&r, &r);
+    for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
+        v.resize(n, DVec3::ZERO);
+    }
+    apply(x, ap);
+    r.par_iter_mut().zip(b.par_iter().zip(ap.par_iter())).for_each(|(r, (b, a))| *r = *b - *a);
+    z.par_iter_mut().zip(r.par_iter().zip(diag.par_iter())).for_each(|(z, (r, d))| *z = *r / *d);
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z);
+    let mut rr = dot(r, r);
     // Relative to the first residual (the pass's whole correction).
     let stop = rr * (CG_TOLERANCE * CG_TOLERANCE);
     for _ in 0..CG_ITERATIONS {
         if rr.cmple(stop).all() {
             break;
         }
-        apply(&p, &mut ap);
-        let pap = dot(&p, &ap);
+        apply(p, ap);
+        let pap = dot(p, ap);
         // A coordinate that has converged (or has nothing to do) takes no step.
         let alpha = DVec3::select(pap.cmpgt(DVec3::ZERO), rz / pap, DVec3::ZERO);
         let parts: Vec<(DVec3, DVec3)> = x
