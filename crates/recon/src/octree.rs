@@ -267,16 +267,19 @@ impl Octree {
         let inv = 1.0 / frame.edge;
         let full = f64::from(1u32 << CODE_BITS);
         let top = (1u32 << CODE_BITS) - 1;
-        let mut pairs: Vec<(u64, Vec3)> = points
+        let codes: Vec<u64> = points
             .par_iter()
             .map(|p| {
                 let u = (*p - frame.origin) * inv;
                 let q = |x: f64| ((x * full).max(0.0) as u32).min(top);
-                let local = u.as_vec3().clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON));
-                (morton::encode(q(u.x), q(u.y), q(u.z)), local)
+                morton::encode(q(u.x), q(u.y), q(u.z))
             })
             .collect();
-        sort_codes(&mut pairs, 3 * CODE_BITS);
+        let pairs = sort_by_code(&codes, 3 * CODE_BITS, |i| {
+            let u = (points[i] - frame.origin) * inv;
+            u.as_vec3().clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON))
+        });
+        drop(codes);
         let distinct = 1 + (1..pairs.len()).into_par_iter().filter(|&i| pairs[i].0 != pairs[i - 1].0).count();
         let (codes, local): (Vec<u64>, Vec<Vec3>) = pairs.par_iter().copied().unzip();
         drop(pairs);
@@ -367,9 +370,9 @@ impl Octree {
     }
 }
 
-/// Sorts `(code, payload)` pairs whose codes have at most `key_bits` bits, stably (equal codes
-/// keep their input order, so with an index as payload the order is that of sorting the
-/// pairs): a bucket pass by the top 12 bits (for the full-depth codes of the points, the
+/// The pairs `(codes[i], payload(i))`, whose codes have at most `key_bits` bits, sorted
+/// stably by code (equal codes keep their order, so with the index as payload the order is
+/// that of sorting the pairs): a bucket pass by the top 12 bits (for the full-depth codes of the points, the
 /// level-4 voxel), then the buckets in parallel. `par_sort_unstable` partitions its top levels
 /// on one thread; this sorts fully in parallel.
 ///
@@ -381,24 +384,31 @@ impl Octree {
 /// Each bucket is sorted by counting passes on its next bits too, until its parts are small
 /// ([`sort_bucket`]): a comparison sort of whole buckets (thousands of pairs on surface data)
 /// did more work (the 4.3 M case's points: 1.06 G instructions in the buckets' quicksorts).
-pub(crate) fn sort_codes<T: Copy + Default + Send + Sync>(pairs: &mut Vec<(u64, T)>, key_bits: u32) {
+pub(crate) fn sort_by_code<T: Copy + Default + Send + Sync>(
+    codes: &[u64],
+    key_bits: u32,
+    payload: impl Fn(usize) -> T + Sync,
+) -> Vec<(u64, T)> {
     const BITS: u32 = 12;
     const BUCKETS: usize = 1 << BITS;
+    let n = codes.len();
     // At most 64 chunks, each of at least 2^14 pairs (fewer for small inputs).
-    let chunk = pairs.len().div_ceil(64).max(1 << 14);
+    let chunk = n.div_ceil(64).max(1 << 14);
+    let chunks: Vec<Range<usize>> = (0..n).step_by(chunk).map(|s| s..(s + chunk).min(n)).collect();
     let shift = key_bits.saturating_sub(BITS);
-    let bucket = |p: &(u64, T)| (p.0 >> shift) as usize;
-    let counts: Vec<Vec<u32>> = pairs
-        .par_chunks(chunk)
+    let bucket = |code: u64| (code >> shift) as usize;
+    // The payloads are made where they are placed (no array of pairs before the sort).
+    let counts: Vec<Vec<u32>> = chunks
+        .par_iter()
         .map(|c| {
             let mut h = vec![0u32; BUCKETS];
-            for p in c {
-                h[bucket(p)] += 1;
+            for i in c.clone() {
+                h[bucket(codes[i])] += 1;
             }
             h
         })
         .collect();
-    let mut out = vec![(0u64, T::default()); pairs.len()];
+    let mut out = vec![(0u64, T::default()); n];
     let mut sizes = vec![0usize; BUCKETS];
     {
         // Bucket-major, chunk-minor sub-slices, handed to their chunks.
@@ -412,11 +422,11 @@ pub(crate) fn sort_codes<T: Copy + Default + Send + Sync>(pairs: &mut Vec<(u64, 
                 *size += h[b] as usize;
             }
         }
-        pairs.par_chunks(chunk).zip(targets).for_each(|(c, mut t)| {
+        chunks.par_iter().zip(targets).for_each(|(c, mut t)| {
             let mut fill = vec![0usize; BUCKETS];
-            for p in c {
-                let b = bucket(p);
-                t[b][fill[b]] = *p;
+            for i in c.clone() {
+                let b = bucket(codes[i]);
+                t[b][fill[b]] = (codes[i], payload(i));
                 fill[b] += 1;
             }
         });
@@ -431,7 +441,7 @@ pub(crate) fn sort_codes<T: Copy + Default + Send + Sync>(pairs: &mut Vec<(u64, 
         rest = tail;
     }
     buckets.into_par_iter().for_each(|b| sort_bucket(b, shift, &mut Vec::new()));
-    *pairs = out;
+    out
 }
 
 /// Pairs below which [`sort_bucket`] sorts by comparison.
@@ -559,7 +569,7 @@ mod tests {
     /// The bucket and radix passes give a stable sort's order: clustered codes (a surface-like
     /// few buckets, duplicates in input order), sparse codes, short keys.
     #[test]
-    fn sort_codes_is_a_sort() {
+    fn sort_by_code_is_a_stable_sort() {
         let mut seed = 11u64;
         let mut rnd = || {
             seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
@@ -577,15 +587,14 @@ mod tests {
                 pairs[i].0 = pairs[j].0;
             }
             // Any payload keeps its input order among equal codes (a stable sort by code).
-            let mut reversed: Vec<(u64, u32)> = pairs.iter().map(|&(c, i)| (c, n as u32 - i)).collect();
+            let reversed: Vec<(u64, u32)> = pairs.iter().map(|&(c, i)| (c, n as u32 - i)).collect();
             let mut expected = pairs.clone();
             expected.sort_unstable();
-            sort_codes(&mut pairs, bits);
-            assert_eq!(pairs, expected, "n {n} bits {bits}");
+            let codes: Vec<u64> = pairs.iter().map(|p| p.0).collect();
+            assert_eq!(sort_by_code(&codes, bits, |i| pairs[i].1), expected, "n {n} bits {bits}");
             let mut expected = reversed.clone();
             expected.sort_by_key(|p| p.0);
-            sort_codes(&mut reversed, bits);
-            assert_eq!(reversed, expected, "n {n} bits {bits}, reversed payload");
+            assert_eq!(sort_by_code(&codes, bits, |i| reversed[i].1), expected, "n {n} bits {bits}, reversed payload");
         }
     }
 

@@ -49,7 +49,7 @@ fn edge_points(quads: &[[u32; 4]], nv: usize) -> (Vec<u32>, Vec<(u32, u32)>, u32
     // one and the face edge within each group: the order of sorting `(min, max, 4 f + k)`, in O(n)
     // and with 8 bytes per face edge.
     let first: Vec<u32> = {
-        let counts: Vec<AtomicU32> = (0..=nv).map(|_| AtomicU32::new(0)).collect();
+        let counts: Vec<AtomicU32> = (0..=nv).into_par_iter().map(|_| AtomicU32::new(0)).collect();
         quads.par_iter().for_each(|q| {
             for k in 0..4 {
                 counts[ends(q, k).0 as usize + 1].fetch_add(1, Relaxed);
@@ -64,8 +64,8 @@ fn edge_points(quads: &[[u32; 4]], nv: usize) -> (Vec<u32>, Vec<(u32, u32)>, u32
     let group = |a: usize| first[a] as usize..first[a + 1] as usize;
     // `larger << 32 | face edge`, so that sorting the words sorts the pairs.
     let mut edges: Vec<u64> = {
-        let fill: Vec<AtomicU32> = first[..nv].iter().map(|&f| AtomicU32::new(f)).collect();
-        let edges: Vec<AtomicU64> = (0..4 * nf).map(|_| AtomicU64::new(0)).collect();
+        let fill: Vec<AtomicU32> = first[..nv].par_iter().map(|&f| AtomicU32::new(f)).collect();
+        let edges: Vec<AtomicU64> = (0..4 * nf).into_par_iter().map(|_| AtomicU64::new(0)).collect();
         quads.par_iter().enumerate().for_each(|(f, q)| {
             for k in 0..4 {
                 let (a, b) = ends(q, k);
@@ -101,7 +101,7 @@ fn edge_points(quads: &[[u32; 4]], nv: usize) -> (Vec<u32>, Vec<(u32, u32)>, u32
     }
     let base = total;
     let edge_vertex: Vec<u32> = {
-        let ev: Vec<AtomicU32> = (0..4 * nf).map(|_| AtomicU32::new(0)).collect();
+        let ev: Vec<AtomicU32> = (0..4 * nf).into_par_iter().map(|_| AtomicU32::new(0)).collect();
         (0..nv).into_par_iter().for_each(|a| {
             let g = &edges[group(a)];
             let mut id = start[a];
@@ -197,19 +197,20 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
     };
     // Number the vertices along the Morton curve of their lattice corners, so that the mapping,
     // which visits them in order, queries nearby voxels one after the other.
-    let mut order: Vec<(u64, u32)> = (0..total)
-        .into_par_iter()
-        .map(|i| {
-            let c = corner(i);
-            (morton::encode(c[0], c[1], c[2]), i as u32)
-        })
-        .collect();
     // Corners of this level have up to `level + 1` bits per axis: as many as the doubled parent
     // corners (an edge or face point's coordinate is at most twice its largest end's).
     let bits = corners.par_iter().map(|c| c[0] | c[1] | c[2]).reduce(|| 0, |a, b| a | b) << 1;
-    crate::octree::sort_codes(&mut order, 3 * (32 - bits.leading_zeros()));
+    let codes: Vec<u64> = (0..total)
+        .into_par_iter()
+        .map(|i| {
+            let c = corner(i);
+            morton::encode(c[0], c[1], c[2])
+        })
+        .collect();
+    let order = crate::octree::sort_by_code(&codes, 3 * (32 - bits.leading_zeros()), |i| i as u32);
+    drop(codes);
     let rank: Vec<u32> = {
-        let rank: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+        let rank: Vec<AtomicU32> = (0..total).into_par_iter().map(|_| AtomicU32::new(0)).collect();
         order.par_iter().enumerate().for_each(|(new, &(_, old))| rank[old as usize].store(new as u32, Relaxed));
         rank.into_iter().map(AtomicU32::into_inner).collect()
     };
