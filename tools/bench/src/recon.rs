@@ -335,34 +335,47 @@ fn verdict(ok: bool) -> &'static str {
     if ok { "met" } else { "NOT met" }
 }
 
-/// The issue's large case: the dragon resampled to 4.3 M points with noise, to level 10: wall
-/// and CPU time, peak memory and the stage table.
+/// The issue's large case: the dragon resampled to 4.3 M points with noise, to level 10, run
+/// three times like the other timing targets: the best wall time (the target's verdict), the
+/// median and every run's, the largest peak memory and the best run's CPU time and stage table.
 fn large_case(m: Mesh, threads: usize) {
     let diag = m.vertices.bounds().diagonal();
     let pts = resample(&m, 4_300_000, 2e-4 * diag);
     drop(m);
     let before = status_kb("VmRSS:").unwrap_or(0.0);
-    // Reset the peak (Linux >= 4.0), so the peak below is this run's.
-    let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
-    let t = Instant::now();
-    let cpu = cpu_seconds();
-    let r = run(&pts, &opts(10, None));
-    let secs = t.elapsed().as_secs_f64();
-    let cpu = cpu_seconds() - cpu;
-    let peak = status_kb("VmHWM:").unwrap_or(0.0);
-    let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
-    let table = stage_table(&r);
-    drop(r);
+    let mut runs: Vec<(f64, f64, f64, usize, String)> = Vec::new();
+    let mut reset = true;
+    for _ in 0..3 {
+        // Reset the peak (Linux >= 4.0), so the peak below is this run's.
+        reset &= std::fs::write("/proc/self/clear_refs", "5").is_ok();
+        let t = Instant::now();
+        let cpu = cpu_seconds();
+        let r = run(&pts, &opts(10, None));
+        let secs = t.elapsed().as_secs_f64();
+        let cpu = cpu_seconds() - cpu;
+        let peak = status_kb("VmHWM:").unwrap_or(0.0);
+        let faces = r.hierarchy.finest().map_or(0, |l| l.mesh.faces.len());
+        let table = stage_table(&r);
+        drop(r);
+        runs.push((secs, cpu, peak, faces, table));
+    }
+    let mut walls: Vec<f64> = runs.iter().map(|r| r.0).collect();
+    walls.sort_by(f64::total_cmp);
+    let best = runs.iter().min_by(|a, b| a.0.total_cmp(&b.0)).expect("three runs");
+    let (secs, cpu, _, faces, table) = best;
+    let peak = runs.iter().map(|r| r.2).fold(0.0, f64::max);
     let per_point = peak * 1024.0 / pts.len() as f64;
     println!(
-        "| 4.3 M points (dragon resampled, noise 2e-4 diag) to level 10 | {} | {faces} | {secs:.3} | 3 | {} |",
+        "| 4.3 M points (dragon resampled, noise 2e-4 diag) to level 10 | {} | {faces} | {secs:.3} | 3 | {} (median {:.3}; runs {}) |",
         pts.len(),
-        verdict(secs <= 3.0)
+        verdict(*secs <= 3.0),
+        walls[1],
+        runs.iter().map(|r| format!("{:.3}", r.0)).collect::<Vec<_>>().join(", ")
     );
     println!();
     println!(
-        "Peak memory of that run: {:.0} MB resident = {per_point:.0} bytes per input point including the input itself \
-         (target 150: {}); {:.0} bytes per point above the {:.0} MB resident before it{}.",
+        "Peak memory of those runs: {:.0} MB resident = {per_point:.0} bytes per input point including the input itself \
+         (target 150: {}); {:.0} bytes per point above the {:.0} MB resident before them{}.",
         peak / 1024.0,
         verdict(per_point <= 150.0),
         (peak - before) * 1024.0 / pts.len() as f64,
@@ -371,7 +384,7 @@ fn large_case(m: Mesh, threads: usize) {
     );
     println!();
     println!(
-        "CPU time of that run: {cpu:.2} s on {threads} threads; load average at its end: {}.",
+        "CPU time of the best run: {cpu:.2} s on {threads} threads; load average at the end: {}.",
         std::fs::read_to_string("/proc/loadavg")
             .unwrap_or_default()
             .split_whitespace()
@@ -380,7 +393,7 @@ fn large_case(m: Mesh, threads: usize) {
             .join(" ")
     );
     println!();
-    println!("Stages of that run (seconds, like the paper's Table 2):");
+    println!("Stages of the best run (seconds, like the paper's Table 2):");
     println!();
     print!("{table}");
 }
