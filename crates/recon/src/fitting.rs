@@ -359,11 +359,11 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> DVec3 {
 struct Pattern {
     start: Vec<u32>,
     columns: Vec<u32>,
-    at: Vec<[u16; 4]>,
+    at: Vec<[u32; 4]>,
 }
 
 /// A chunk of [`Pattern`]'s rows: their lengths, columns and places.
-type PatternPart = (Vec<u32>, Vec<u32>, Vec<[u16; 4]>);
+type PatternPart = (Vec<u32>, Vec<u32>, Vec<[u32; 4]>);
 
 impl Pattern {
     fn new(quads: &[[u32; 4]], inc: &Incidence) -> Self {
@@ -380,15 +380,13 @@ impl Pattern {
                     let row = columns.len();
                     columns.push(v as u32);
                     for &(f, _) in inc.of(v) {
-                        let mut places = [0u16; 4];
+                        let mut places = [0u32; 4];
                         for (c, &w) in quads[f as usize].iter().enumerate() {
                             let k = columns[row..].iter().position(|&e| e == w).unwrap_or_else(|| {
                                 columns.push(w);
                                 columns.len() - 1 - row
                             });
-                            // A row has about 9 columns; u16 holds any vertex's (a vertex in
-                            // 16,000 faces would be needed to overflow it).
-                            places[c] = k.min(usize::from(u16::MAX)) as u16;
+                            places[c] = k as u32;
                         }
                         at.push(places);
                     }

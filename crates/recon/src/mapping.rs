@@ -70,30 +70,13 @@ impl TangentPlane {
 /// point case's levels 1-4 spent 0.08 s mapping a few hundred vertices, mostly on one thread).
 pub(crate) const GATHER_CAP: usize = 4096;
 
-/// Sums the points of `cell` within `radius` of `x`, relative to `x` (a fixed stride of them in
-/// voxels of more than [`GATHER_CAP`] points).
+/// Sums the points of `cell` within `radius` of `x`, relative to `x` (in `f64`; a fixed stride
+/// of them in voxels of more than [`GATHER_CAP`] points).
 #[inline]
 fn gather(tree: &Octree, cells: &Cells, cell: usize, x: DVec3, radius: f64, m: &mut Moments) {
     let points = &tree.points[cells.range(cell)];
-    if points.len() > GATHER_CAP {
-        let stride = points.len().div_ceil(GATHER_CAP);
-        let r2 = radius * radius;
-        for p in points.iter().step_by(stride) {
-            let d = p.as_dvec3() - x;
-            if d.length_squared() < r2 {
-                m.add(d);
-            }
-        }
-    } else {
-        accumulate(points, x, radius, m);
-    }
-}
-
-/// Adds the points within `radius` of `x` (relative to `x`, in `f64`) to `m`.
-#[inline]
-fn accumulate(points: &[Vec3], x: DVec3, radius: f64, m: &mut Moments) {
     let r2 = radius * radius;
-    for p in points {
+    for p in points.iter().step_by(points.len().div_ceil(GATHER_CAP).max(1)) {
         let d = p.as_dvec3() - x;
         if d.length_squared() < r2 {
             m.add(d);

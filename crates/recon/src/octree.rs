@@ -372,9 +372,9 @@ impl Octree {
 
 /// The pairs `(codes[i], payload(i))`, whose codes have at most `key_bits` bits, sorted
 /// stably by code (equal codes keep their order, so with the index as payload the order is
-/// that of sorting the pairs): a bucket pass by the top 12 bits (for the full-depth codes of the points, the
-/// level-4 voxel), then the buckets in parallel. `par_sort_unstable` partitions its top levels
-/// on one thread; this sorts fully in parallel.
+/// that of sorting the pairs): a bucket pass by the top 12 bits (for the full-depth codes of
+/// the points, the level-4 voxel), then the buckets in parallel. `par_sort_unstable`
+/// partitions its top levels on one thread; this sorts fully in parallel.
 ///
 /// The bucket pass is parallel too: the input is cut into a fixed number of chunks (not one per
 /// thread), each chunk counts its pairs per bucket, and the output is split, bucket by bucket,
