@@ -227,27 +227,14 @@ fn bad_edges(quads: &[[u32; 4]], nv: usize, slots: &[u64], dec: &Decisions<'_>) 
         let (a, b) = (q[k], q[(k + 1) % 4]);
         (a.min(b), a.max(b))
     };
-    let mut first = vec![0u32; nv + 1];
-    for q in quads {
-        for k in 0..4 {
-            first[ends(q, k).0 as usize + 1] += 1;
-        }
-    }
-    for i in 0..nv {
-        first[i + 1] += first[i];
-    }
-    let mut edges = vec![(0u32, 0u32, 0u32, 0u8); 4 * quads.len()];
-    {
-        let mut fill = first.clone();
-        for (f, q) in quads.iter().enumerate() {
-            for k in 0..4 {
-                let (a, b) = ends(q, k);
-                let at = &mut fill[a as usize];
-                edges[*at as usize] = (a, b, f as u32, k as u8);
-                *at += 1;
-            }
-        }
-    }
+    // Face edge `k` grouped by its smaller end: the counting sort of `corners_by_vertex` over
+    // the faces' smaller edge ends, in face order within each group.
+    let smaller: Vec<[u32; 4]> = quads.par_iter().map(|q| std::array::from_fn(|k| ends(q, k).0)).collect();
+    let (first, mut edges) = corners_by_vertex(&smaller, nv, |f, k, _| {
+        let (a, b) = ends(&quads[f], k);
+        (a, b, f as u32, k as u8)
+    });
+    drop(smaller);
     let mut groups: Vec<&mut [(u32, u32, u32, u8)]> = Vec::with_capacity(nv);
     let mut rest = edges.as_mut_slice();
     for w in first.windows(2) {
