@@ -65,6 +65,13 @@ impl FaceList {
         Self { offsets: (0..=quads.len() as u32).map(|i| i * 4).collect(), indices: quads.as_flattened().to_vec() }
     }
 
+    /// A list of quads, taking over their storage (no copy of the indices: for the finest
+    /// levels of large reconstructions, tens of megabytes not allocated twice).
+    pub fn from_quad_vec(quads: Vec<[u32; 4]>) -> Self {
+        let offsets = (0..=quads.len() as u32).map(|i| i * 4).collect();
+        Self { offsets, indices: bytemuck::allocation::cast_vec(quads) }
+    }
+
     /// A list of triangles.
     pub fn from_triangles(tris: &[[u32; 3]]) -> Self {
         Self { offsets: (0..=tris.len() as u32).map(|i| i * 3).collect(), indices: tris.as_flattened().to_vec() }

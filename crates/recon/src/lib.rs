@@ -816,7 +816,8 @@ struct LevelState {
 
 impl LevelState {
     /// The output level; moves the origins out (the next level does not need them), and with
-    /// `last` also the positions and corners (converted in place, no copies at the finest level).
+    /// `last` also the positions, corners and quads (converted in place, no copies at the
+    /// finest level).
     fn take_level(&mut self, tree: &Octree, last: bool) -> Level {
         let world: Vec<DVec3> = if last {
             let mut p = std::mem::take(&mut self.positions);
@@ -826,7 +827,12 @@ impl LevelState {
             self.positions.par_iter().map(|&p| tree.frame.to_world(p)).collect()
         };
         let vertex_corners = if last { std::mem::take(&mut self.corners) } else { self.corners.clone() };
-        let mesh = Mesh { vertices: PointCloud::from_positions(world), faces: FaceList::from_quads(&self.quads) };
+        let faces = if last {
+            FaceList::from_quad_vec(std::mem::take(&mut self.quads))
+        } else {
+            FaceList::from_quads(&self.quads)
+        };
+        let mesh = Mesh { vertices: PointCloud::from_positions(world), faces };
         let face_slots = self
             .slots
             .par_iter()
