@@ -162,6 +162,18 @@ impl FaceList {
 mod tests {
     use super::*;
 
+    /// Taking over a quad vector gives the list that copying it gives, with its indices in place.
+    #[test]
+    fn quads_taken_over_equal_quads_copied() {
+        let quads: Vec<[u32; 4]> = (0..1000u32).map(|i| [i, i + 1, 2 * i + 7, i ^ 5]).collect();
+        let copied = FaceList::from_quads(&quads);
+        let taken = FaceList::from_quad_vec(quads.clone());
+        assert_eq!(taken, copied);
+        assert_eq!(taken.len(), 1000);
+        assert_eq!(taken.face(999), &quads[999]);
+        assert_eq!(FaceList::from_quad_vec(Vec::new()), FaceList::default());
+    }
+
     #[test]
     fn csr_layout_and_checks() {
         let mut f = FaceList::default();
