@@ -141,8 +141,9 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
     if feet.is_empty() {
         return;
     }
-    // The passes' arrays, allocated once (fresh pages cost a page fault each: at the 4.3 M
-    // point case's level 7 the passes' own arrays were 40 MB of faults).
+    // The passes' arrays, allocated once (fresh pages cost a page fault each: the fit of the
+    // 4.3 M point case's level 7 faulted 13.4 K pages with arrays made anew every pass, 8.7 K
+    // with them kept).
     let mut work = Work::default();
     for pass in 0..passes {
         if pass > 0 {
