@@ -291,7 +291,12 @@ mod tests {
         let quads: Vec<[u32; 4]> =
             (0..PARALLEL_CORNERS as u32 * 2).map(|f| [rnd(n), rnd(n / 10), f % n, rnd(n)]).collect();
         let value = |f: usize, k: usize, q: &[u32; 4]| (f as u32, k as u8, q[(k + 1) % 4]);
-        let parallel = corners_by_vertex(&quads, n as usize, value);
+        // In a pool of several threads whatever the machine, so the parallel path runs.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().expect("a thread pool");
+        let parallel = pool.install(|| {
+            assert!(rayon::current_num_threads() >= 2);
+            corners_by_vertex(&quads, n as usize, value)
+        });
         let sequential = corners_by_vertex_sequential(&quads, n as usize, value);
         assert_eq!(parallel, sequential);
         assert_eq!(parallel.1.len(), 4 * quads.len());

@@ -158,7 +158,7 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
 /// The arrays of a pass, kept from pass to pass.
 #[derive(Default)]
 struct Work {
-    /// [`splits`] of the current positions.
+    /// [`splits_into`] of the current positions.
     splits: Vec<bool>,
     /// The feet grouped by face: face `f`'s are `order[start[f]..start[f + 1]]`.
     start: Vec<u32>,
@@ -224,14 +224,7 @@ fn nearest_on_face(p: DVec3, f: u32, q: &[u32; 4], x: &[DVec3], other: bool, bes
 }
 
 /// Per face, whether it splits along its `1-3` diagonal (the shorter one; `0-2` on a tie), as
-/// [`octowrap_mesh::Mesh::triangles`] splits it.
-fn splits(quads: &[[u32; 4]], x: &[DVec3]) -> Vec<bool> {
-    let mut out = Vec::new();
-    splits_into(quads, x, &mut out);
-    out
-}
-
-/// [`splits`] into `out`.
+/// [`octowrap_mesh::Mesh::triangles`] splits it, into `out`.
 fn splits_into(quads: &[[u32; 4]], x: &[DVec3], out: &mut Vec<bool>) {
     out.resize(quads.len(), false);
     out.par_iter_mut().zip(quads.par_iter()).for_each(|(s, q)| {
@@ -280,7 +273,8 @@ fn project(
     x: &[DVec3],
     stride: usize,
 ) -> Vec<Foot> {
-    let splits = splits(quads, x);
+    let mut splits = Vec::new();
+    splits_into(quads, x, &mut splits);
     let boxes: Vec<(DVec3, DVec3)> = quads
         .par_iter()
         .map(|q| {

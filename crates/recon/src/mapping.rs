@@ -68,7 +68,7 @@ impl TangentPlane {
 /// are in Morton order, so the sample spreads over the whole voxel). A plane fit needs far fewer;
 /// the coarse levels of large scans hold hundreds of thousands of points per voxel (the 4.3 M
 /// point case's levels 1-4 spent 0.08 s mapping a few hundred vertices, mostly on one thread).
-pub(crate) const GATHER_CAP: usize = 4096;
+const GATHER_CAP: usize = 4096;
 
 /// Sums the points of `cell` within `radius` of `x`, relative to `x` (in `f64`; a fixed stride
 /// of them in voxels of more than [`GATHER_CAP`] points).
