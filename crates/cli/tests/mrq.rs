@@ -124,3 +124,41 @@ fn reconstructed_mrq_holds_the_placed_positions_exactly() {
         assert_eq!(got, want, "level {k}");
     }
 }
+
+/// The placement refuses moves that fold a face: every face of every level of the placed file
+/// keeps its orientation (its vector area points the way it does with --keep-positions, by more
+/// than a tenth of its area), and no level has a zero-area face or two vertices at one point.
+#[test]
+fn reconstructed_mrq_placement_folds_no_face() {
+    let dir = tempfile::tempdir().unwrap();
+    let kitten = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz");
+    let (placed, kept) = (dir.path().join("p.mrq"), dir.path().join("k.mrq"));
+    for (out, extra) in [(&placed, None), (&kept, Some("--keep-positions"))] {
+        let mut args = vec!["reconstruct", kitten.to_str().unwrap(), "-o", out.to_str().unwrap(), "--bits", "12"];
+        args.extend(extra);
+        let o = octowrap(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+    }
+    let read = |p: &Path| octowrap_format::read_path(p, &octowrap_format::DecodeOptions::default()).unwrap().hierarchy;
+    let (placed, kept) = (read(&placed), read(&kept));
+    assert_eq!(placed.levels.len(), kept.levels.len());
+    let area = |m: &octowrap_mesh::Mesh, f: &[u32]| {
+        let p = &m.vertices.positions;
+        (0..f.len()).map(|i| p[f[i] as usize].cross(p[f[(i + 1) % f.len()] as usize])).sum::<octowrap_mesh::DVec3>()
+    };
+    let mut faces = 0;
+    for (k, (a, b)) in placed.levels.iter().zip(&kept.levels).enumerate() {
+        assert_eq!(a.mesh.faces, b.mesh.faces, "level {k}: same topology, same order");
+        for (i, f) in a.mesh.faces.iter().enumerate() {
+            let (new, old) = (area(&a.mesh, f), area(&b.mesh, f));
+            assert!(new.dot(old) > 0.1 * old.length_squared(), "level {k} face {i}: {new} against {old}");
+            faces += 1;
+        }
+        let report = octowrap_validate::validate_mesh(&a.mesh, &octowrap_validate::Options::default());
+        let c = &report.counts;
+        assert_eq!((c.zero_area_faces, c.duplicate_vertices), (0, 0), "level {k}");
+        assert!(report.properties.manifold && report.properties.clean, "level {k}: {:?}", report.findings);
+    }
+    assert!(faces > 1000, "{faces} faces checked");
+}
+

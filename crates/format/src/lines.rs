@@ -8,7 +8,7 @@
 //! coarse to fine, each along its own tangent plane, so that the surface barely moves and the file
 //! still stores exactly what the caller holds (every moved vertex sits on a grid point).
 
-use octowrap_mesh::{Aabb, DVec3, Hierarchy, Mesh};
+use octowrap_mesh::{Aabb, DVec3, FaceList, Hierarchy, Mesh};
 
 use crate::decode::PlainLevel;
 use crate::encode::{self, Encoded};
@@ -28,11 +28,16 @@ pub struct LinePlacement {
     pub placed: usize,
     /// Vertices with a line that stayed where they were: the line meets their tangent plane at
     /// a grazing angle or too far away (more than [`LinePlacement::max_move_voxels`] of their
-    /// level's voxel), or a move would change the grid of a file without an octree cube.
+    /// level's voxel), a move would change the grid of a file without an octree cube, or the
+    /// move would harm the mesh ([`LinePlacement::reverted`]).
     pub kept: usize,
     /// Vertices not slid onto a line: levels 0 and 1 (see
     /// [`LinePlacement::first_placed_level`]), and vertices whose line is degenerate.
     pub without_line: usize,
+    /// Of the kept vertices, those whose move was undone because it would have folded or
+    /// collapsed one of their faces, or put them on the exact position of another vertex (see
+    /// [`place_on_prediction_lines`]).
+    pub reverted: usize,
     /// The largest move, world units.
     pub max_move: f64,
     /// The root mean square move over placed vertices, world units.
@@ -71,7 +76,11 @@ const MIN_COSINE: f64 = 0.5;
 /// new position is that grid point's world position, so the file holds it exactly. Lattice levels
 /// take the lattice predictor (§6.3) whose lines need the smaller moves. Vertices whose line
 /// meets the plane at a grazing angle or too far away stay where they are (the encoder codes them
-/// with three residuals), and so do the vertices of level 1. Every other vertex, level 0's included, moves to its grid point (at most
+/// with three residuals), and so do the vertices of level 1. So do the vertices whose move would
+/// fold, flip or collapse one of their faces, or land on another vertex's exact position (the
+/// level's moves are checked together once placed, and the harmful ones undone; the vertices
+/// placed after one of them on lines through it then sit off their lines, which costs bits, not
+/// exactness). Every other vertex, level 0's included, moves to its grid point (at most
 /// half a step per axis), so that the file holds the result exactly. Topology and order are
 /// unchanged.
 ///
@@ -119,38 +128,70 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
         let line_shift =
             ((voxel / grid.step / LINE_POINTS_PER_VOXEL).log2().floor().max(0.0) as u32).min(MAX_LINE_SHIFT);
         let normals = vertex_normals(&h.levels[k].mesh);
+        // Per vertex: how far it may move (refused moves: -inf).
+        let mut reach = vec![limit; h.levels[k].mesh.vertex_count()];
         let candidates: &[u8] =
             if enc.mode.is_lattice() { &[PREDICTOR_NORMAL, PREDICTOR_BILINEAR] } else { &[PREDICTOR_NORMAL] };
-        let mut best: Option<Candidate> = None;
-        for &predictor in candidates {
-            let place = if enc.mode == Mode::FastLattice { place_level_fast } else { place_level };
-            let c = place(
-                &enc,
-                pl,
-                (k as u32, grid.bits, predictor, line_shift),
-                &h.levels[k].mesh.vertices.positions,
-                &normals,
-                &|line: &dyn PlacementLine, x: DVec3, n: DVec3| slide(line, x, n, &grid, limit, guard.as_ref()),
-                limit,
-            );
-            if best.as_ref().is_none_or(|b| c.cost < b.cost) {
-                best = Some(c);
+        let before = h.levels[k].mesh.vertices.positions.clone();
+        let faces = &h.levels[k].mesh.faces;
+        let choose = |reach: &[f64]| {
+            let mut best: Option<Candidate> = None;
+            for &predictor in candidates {
+                let place = if enc.mode == Mode::FastLattice { place_level_fast } else { place_level };
+                let c = place(
+                    &enc,
+                    pl,
+                    (k as u32, grid.bits, predictor, line_shift),
+                    &before,
+                    &normals,
+                    reach,
+                    &|line: &dyn PlacementLine, x: DVec3, n: DVec3, r: f64| slide(line, x, n, &grid, r, guard.as_ref()),
+                    limit,
+                );
+                if best.as_ref().is_none_or(|b| c.cost < b.cost) {
+                    best = Some(c);
+                }
             }
-        }
-        let best = best.expect("one candidate at least");
-        stats.kept += best.kept;
-        stats.without_line += best.none;
-        stats.placed += best.moves.len();
-        let positions = &mut h.levels[k].mesh.vertices.positions;
+            best.expect("one candidate at least")
+        };
+        // Place, refuse the moves that harm the mesh, and place again (the vertices placed on
+        // lines through a refused one get lines through where it stays), a few rounds; then undo
+        // whatever harm is left. A vertex that does not move goes to its grid point (`base`), so
+        // that the file holds it exactly; the checks see it there.
+        let mut base = before.clone();
+        snap(&mut base, &grid, guard.as_ref(), |_| true);
+        let mut positions = base.clone();
         let mut moved = vec![false; positions.len()];
-        for (old, p) in best.moves {
-            let d = (p - positions[old as usize]).length();
+        let mut round = 0;
+        let best = loop {
+            let best = choose(&reach);
+            positions.copy_from_slice(&base);
+            moved.fill(false);
+            for &(old, p) in &best.moves {
+                positions[old as usize] = p;
+                moved[old as usize] = true;
+            }
+            let harm = harmful_moves(faces, &base, &positions, &moved);
+            round += 1;
+            if harm.is_empty() || round == PLACEMENT_ROUNDS {
+                break best;
+            }
+            for v in harm {
+                reach[v as usize] = f64::NEG_INFINITY;
+                stats.reverted += 1;
+            }
+        };
+        let undone = revert_harmful_moves(faces, &base, &mut positions, &mut moved);
+        stats.reverted += undone;
+        stats.kept += best.kept + undone;
+        stats.without_line += best.none;
+        for &(old, p) in best.moves.iter().filter(|m| moved[m.0 as usize]) {
+            let d = (p - before[old as usize]).length();
             stats.max_move = stats.max_move.max(d);
             sum_sq += d * d;
-            positions[old as usize] = p;
-            moved[old as usize] = true;
+            stats.placed += 1;
         }
-        snap(positions, &grid, guard.as_ref(), |v| !moved[v]);
+        h.levels[k].mesh.vertices.positions = positions;
         // The level as the encoder will now see it: the parent of the next.
         let enc = encode_one(h, k, &grid, &parent_face_new, parent.as_ref(), opts.version)?;
         parent_face_new = enc.face_new;
@@ -195,6 +236,7 @@ fn place_level(
     (k, bits, predictor, line_shift): (u32, u32, u8, u32),
     positions: &[DVec3],
     normals: &[DVec3],
+    reach: &[f64],
     slide: &Slide<'_>,
     limit: f64,
 ) -> Candidate {
@@ -224,7 +266,7 @@ fn place_level(
             c.none += 1;
             return Ok((level.q[v], None));
         };
-        if let Some((p, g)) = slide(&line, x, normals[old as usize]) {
+        if let Some((p, g)) = slide(&line, x, normals[old as usize], reach[old as usize]) {
             c.cost += (p - x).length_squared();
             c.moves.push((old, p));
             Ok((g, None))
@@ -238,7 +280,7 @@ fn place_level(
 }
 
 /// Slides a vertex (position, normal) along a line: where it lands (world, grid), if it moves.
-type Slide<'a> = dyn Fn(&dyn PlacementLine, DVec3, DVec3) -> Option<(DVec3, [i64; 3])> + 'a;
+type Slide<'a> = dyn Fn(&dyn PlacementLine, DVec3, DVec3, f64) -> Option<(DVec3, [i64; 3])> + 'a;
 
 /// A prediction line as placement sees it: version 2's (spec §6.6) or mode 3's (§6.8).
 trait PlacementLine {
@@ -282,6 +324,7 @@ fn place_level_fast(
     (k, bits, predictor, line_shift): (u32, u32, u8, u32),
     positions: &[DVec3],
     normals: &[DVec3],
+    reach: &[f64],
     slide: &Slide<'_>,
     limit: f64,
 ) -> Candidate {
@@ -310,7 +353,7 @@ fn place_level_fast(
             c.none += 1;
             return Ok(level.q[v]);
         };
-        if let Some((p, g)) = slide(&line, x, normals[old as usize]) {
+        if let Some((p, g)) = slide(&line, x, normals[old as usize], reach[old as usize]) {
             c.cost += (p - x).length_squared();
             c.moves.push((old, p));
             Ok(g)
@@ -367,6 +410,80 @@ fn slide(
     Some((p, q))
 }
 
+/// How many times a level is placed, each time without the moves that harmed the mesh the time
+/// before (see [`harmful_moves`]).
+const PLACEMENT_ROUNDS: usize = 8;
+
+/// The smallest fraction of a face's vector area (Newell), measured along its direction before
+/// the moves, that the face must keep after them: less means the moves folded or collapsed it.
+const MIN_AREA_KEPT: f64 = 0.1;
+
+/// The moved vertices (`moved[v]`, from `before[v]` to `positions[v]`) whose moves harm the
+/// mesh, ascending: every moved vertex of a face whose vector area along its former direction
+/// falls below [`MIN_AREA_KEPT`] of what it was (a fold, a flip or a collapse) or with two
+/// corners at one point, and every moved vertex at the exact position of another vertex.
+fn harmful_moves(faces: &FaceList, before: &[DVec3], positions: &[DVec3], moved: &[bool]) -> Vec<u32> {
+    let mut harm = Vec::new();
+    for f in faces.iter() {
+        if !f.iter().any(|&v| moved[v as usize]) {
+            continue;
+        }
+        let old = vector_area(before, f);
+        let new = vector_area(positions, f);
+        let len2 = old.length_squared();
+        let folded = len2 > 0.0 && !(new.dot(old) >= MIN_AREA_KEPT * len2);
+        let pinched = f
+            .iter()
+            .enumerate()
+            .any(|(i, &a)| f[i + 1..].iter().any(|&b| positions[a as usize] == positions[b as usize]));
+        if folded || pinched {
+            // The face's largest move (the first of equal ones).
+            let far = |v: u32| positions[v as usize].distance_squared(before[v as usize]);
+            let worst = f.iter().copied().filter(|&v| moved[v as usize]).fold(None, |w: Option<u32>, v| match w {
+                Some(w) if far(w) >= far(v) => Some(w),
+                _ => Some(v),
+            });
+            harm.extend(worst);
+        }
+    }
+    // Bit patterns, -0 as 0: the validator's duplicate test.
+    let key = |p: DVec3| [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
+    let mut keyed: Vec<([u64; 3], u32)> = positions.iter().zip(0..).map(|(&p, v)| (key(p), v)).collect();
+    keyed.sort_unstable();
+    for run in keyed.chunk_by(|a, b| a.0 == b.0).filter(|run| run.len() > 1) {
+        harm.extend(run.iter().map(|&(_, v)| v).filter(|&v| moved[v as usize]));
+    }
+    harm.sort_unstable();
+    harm.dedup();
+    harm
+}
+
+/// Undoes the [`harmful_moves`] until none is left (each round undoes one move at least, and a
+/// face with all its moves undone is as it was). Returns the number of moves undone.
+fn revert_harmful_moves(faces: &FaceList, before: &[DVec3], positions: &mut [DVec3], moved: &mut [bool]) -> usize {
+    let mut reverted = 0;
+    loop {
+        let harm = harmful_moves(faces, before, positions, moved);
+        if harm.is_empty() {
+            return reverted;
+        }
+        for v in harm {
+            moved[v as usize] = false;
+            positions[v as usize] = before[v as usize];
+            reverted += 1;
+        }
+    }
+}
+
+/// A face's vector area (Newell's method: half the sum of its edges' cross products).
+fn vector_area(p: &[DVec3], f: &[u32]) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for (i, &a) in f.iter().enumerate() {
+        n += p[a as usize].cross(p[f[(i + 1) % f.len()] as usize]);
+    }
+    0.5 * n
+}
+
 /// Moves each selected position to its grid point (at most half a step per axis), unless that
 /// would change an untied grid's bounding box.
 fn snap(positions: &mut [DVec3], grid: &Grid, guard: Option<&Aabb>, selected: impl Fn(usize) -> bool) {
@@ -393,11 +510,7 @@ fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
     let pos = &mesh.vertices.positions;
     let mut out = vec![DVec3::ZERO; pos.len()];
     for f in mesh.faces.iter() {
-        let mut n = DVec3::ZERO;
-        for (i, &a) in f.iter().enumerate() {
-            let b = f[(i + 1) % f.len()];
-            n += pos[a as usize].cross(pos[b as usize]);
-        }
+        let n = vector_area(pos, f);
         for &a in f {
             out[a as usize] += n;
         }
@@ -406,4 +519,78 @@ fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
         *n = n.try_normalize().unwrap_or(DVec3::ZERO);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2x2 grid of unit quads in the plane z = 0 (vertex `3 * y + x`), counter-clockwise.
+    fn grid() -> (FaceList, Vec<DVec3>) {
+        let p = (0..9).map(|i| DVec3::new(f64::from(i % 3), f64::from(i / 3), 0.0)).collect();
+        let quad = |x: u32, y: u32| [3 * y + x, 3 * y + x + 1, 3 * y + x + 4, 3 * y + x + 3];
+        (FaceList::from_quads(&[quad(0, 0), quad(1, 0), quad(0, 1), quad(1, 1)]), p)
+    }
+
+    fn apply(before: &[DVec3], moves: &[(u32, DVec3)]) -> (Vec<DVec3>, Vec<bool>) {
+        let mut p = before.to_vec();
+        let mut moved = vec![false; p.len()];
+        for &(v, x) in moves {
+            p[v as usize] = x;
+            moved[v as usize] = true;
+        }
+        (p, moved)
+    }
+
+    #[test]
+    fn harmless_moves_stay() {
+        let (faces, before) = grid();
+        // The centre slides within its four quads, a corner along the boundary, one out of plane.
+        let moves = [(4, DVec3::new(1.3, 0.8, 0.0)), (0, DVec3::new(0.2, 0.0, 0.0)), (8, DVec3::new(2.0, 2.0, 0.4))];
+        let (mut p, mut moved) = apply(&before, &moves);
+        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 0);
+        for (v, x) in moves {
+            assert_eq!(p[v as usize], x);
+            assert!(moved[v as usize]);
+        }
+    }
+
+    #[test]
+    fn a_fold_is_undone() {
+        let (faces, before) = grid();
+        // The centre jumps past the far corner of quad (1, 1): that quad flips, the others stretch.
+        let (mut p, mut moved) = apply(&before, &[(4, DVec3::new(2.5, 2.5, 0.0)), (1, DVec3::new(1.1, 0.0, 0.0))]);
+        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 1);
+        assert_eq!(p[4], before[4]);
+        assert!(!moved[4]);
+        // The boundary vertex's own move harmed nothing and stays.
+        assert_eq!(p[1], DVec3::new(1.1, 0.0, 0.0));
+        assert!(moved[1]);
+    }
+
+    #[test]
+    fn a_collapse_and_a_duplicate_are_undone() {
+        let (faces, mut before) = grid();
+        // Vertex 2 lands exactly on vertex 1 (collapsing an edge of quad (1, 0)); vertex 6 on a
+        // tenth vertex, in no face, at (0, 2.5) (a harmless stretch of quad (0, 1) otherwise).
+        before.push(DVec3::new(0.0, 2.5, 0.0));
+        let (mut p, mut moved) = apply(&before, &[(2, before[1]), (6, before[9]), (0, DVec3::new(0.2, 0.0, 0.0))]);
+        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 2);
+        assert_eq!((p[2], p[6]), (before[2], before[6]));
+        assert_eq!(moved, [true, false, false, false, false, false, false, false, false, false]);
+    }
+
+    #[test]
+    fn undoing_repeats_until_nothing_harms() {
+        let (faces, mut before) = grid();
+        // A tenth vertex in no face, at (3, 1). Vertices 4 and 5 move together harmlessly, but 5
+        // lands on the tenth vertex and is undone; with 5 back, 4's move folds quad (1, 0), so a
+        // second round undoes it too. Vertex 7's move is harmless either way and stays.
+        before.push(DVec3::new(3.0, 1.0, 0.0));
+        let moves = [(4, DVec3::new(2.6, 0.5, 0.0)), (5, DVec3::new(3.0, 1.0, 0.0)), (7, DVec3::new(1.0, 1.9, 0.0))];
+        let (mut p, mut moved) = apply(&before, &moves);
+        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 2);
+        assert_eq!(moved, [false, false, false, false, false, false, false, true, false, false]);
+        assert_eq!(p[..7], before[..7]);
+    }
 }

@@ -10,12 +10,12 @@
 //! MB/s are bytes per second / 10^6, best of 3 runs.
 //!
 //! The binary read returns 5 M `DVec3` (120 MB, twice the input), all in freshly allocated
-//! memory; glibc serves blocks that large with `mmap`, so every run pays one page fault per
-//! 4 KiB of output. The "floor" row measures that cost alone (a clone of the positions), which on
-//! a virtual machine with slow page faults can exceed the parsing itself. Run with
-//! `GLIBC_TUNABLES=glibc.malloc.mmap_threshold=2147483647:glibc.malloc.trim_threshold=4294967295`
-//! to let the allocator reuse memory between runs, as a long-running process reading many files
-//! would: the best of 3 then shows the reader's own speed.
+//! memory. The bench, like the `octowrap` binary, runs on jemalloc with transparent huge pages
+//! (`.cargo/config.toml`), which reuses freed memory and faults it in 2 MiB at a time; glibc's
+//! allocator serves blocks that large with a fresh `mmap` each time, one page fault per 4 KiB of
+//! output, which on a virtual machine can cost more than the parsing itself. The "floor" row
+//! measures that cost alone (a clone of the positions). Library users on glibc get the same
+//! effect with `GLIBC_TUNABLES=glibc.malloc.hugetlb=1`.
 
 use octowrap_geom::DVec3;
 use octowrap_io::{Format, Limits, Mesh, ReadOptions, WriteOptions, decompress_if_gzip, read_bytes, write_to};
