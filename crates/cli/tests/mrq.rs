@@ -161,4 +161,3 @@ fn reconstructed_mrq_placement_folds_no_face() {
     }
     assert!(faces > 1000, "{faces} faces checked");
 }
-

@@ -154,33 +154,10 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
             }
             best.expect("one candidate at least")
         };
-        // Place, refuse the moves that harm the mesh, and place again (the vertices placed on
-        // lines through a refused one get lines through where it stays), a few rounds; then undo
-        // whatever harm is left. A vertex that does not move goes to its grid point (`base`), so
-        // that the file holds it exactly; the checks see it there.
         let mut base = before.clone();
         snap(&mut base, &grid, guard.as_ref(), |_| true);
-        let mut positions = base.clone();
-        let mut moved = vec![false; positions.len()];
-        let mut round = 0;
-        let best = loop {
-            let best = choose(&reach);
-            positions.copy_from_slice(&base);
-            moved.fill(false);
-            for &(old, p) in &best.moves {
-                positions[old as usize] = p;
-                moved[old as usize] = true;
-            }
-            let harm = harmful_moves(faces, &base, &positions, &moved);
-            round += 1;
-            if harm.is_empty() || round == PLACEMENT_ROUNDS {
-                break best;
-            }
-            for v in harm {
-                reach[v as usize] = f64::NEG_INFINITY;
-                stats.reverted += 1;
-            }
-        };
+        let (best, mut positions, mut moved, refused) = place_guarded(faces, &base, &mut reach, &choose);
+        stats.reverted += refused;
         let undone = revert_harmful_moves(faces, &base, &mut positions, &mut moved);
         stats.reverted += undone;
         stats.kept += best.kept + undone;
@@ -201,6 +178,41 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
         stats.rms_move = (sum_sq / stats.placed as f64).sqrt();
     }
     Ok(stats)
+}
+
+/// Places a level (`choose`, given how far each vertex may move), refuses the moves that harm the
+/// mesh ([`harmful_moves`]) and places again without them (the vertices placed on lines through
+/// a refused one then get lines through where it stays), up to [`PLACEMENT_ROUNDS`] times. A
+/// vertex that does not move goes to its grid point (`base`), so that the file holds it exactly;
+/// the checks see it there. Returns the last placement, the positions and moved flags it gives,
+/// and the number of moves refused (harm left after the last round is for the caller to undo).
+fn place_guarded(
+    faces: &FaceList,
+    base: &[DVec3],
+    reach: &mut [f64],
+    choose: &dyn Fn(&[f64]) -> Candidate,
+) -> (Candidate, Vec<DVec3>, Vec<bool>, usize) {
+    let mut positions = base.to_vec();
+    let mut moved = vec![false; positions.len()];
+    let mut refused = 0;
+    for round in 1.. {
+        let best = choose(reach);
+        positions.copy_from_slice(base);
+        moved.fill(false);
+        for &(old, p) in &best.moves {
+            positions[old as usize] = p;
+            moved[old as usize] = true;
+        }
+        let harm = harmful_moves(faces, base, &positions, &moved);
+        if harm.is_empty() || round == PLACEMENT_ROUNDS {
+            return (best, positions, moved, refused);
+        }
+        for v in harm {
+            reach[v as usize] = f64::NEG_INFINITY;
+            refused += 1;
+        }
+    }
+    unreachable!("the rounds end at PLACEMENT_ROUNDS")
 }
 
 fn encode_one(
@@ -431,7 +443,8 @@ fn harmful_moves(faces: &FaceList, before: &[DVec3], positions: &[DVec3], moved:
         let old = vector_area(before, f);
         let new = vector_area(positions, f);
         let len2 = old.length_squared();
-        let folded = len2 > 0.0 && !(new.dot(old) >= MIN_AREA_KEPT * len2);
+        let kept = new.dot(old).partial_cmp(&(MIN_AREA_KEPT * len2));
+        let folded = len2 > 0.0 && !matches!(kept, Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal));
         let pinched = f
             .iter()
             .enumerate()
