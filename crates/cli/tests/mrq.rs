@@ -133,12 +133,17 @@ fn reconstructed_mrq_placement_folds_no_face() {
     let dir = tempfile::tempdir().unwrap();
     let kitten = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz");
     let (placed, kept) = (dir.path().join("p.mrq"), dir.path().join("k.mrq"));
-    for (out, extra) in [(&placed, None), (&kept, Some("--keep-positions"))] {
-        let mut args = vec!["reconstruct", kitten.to_str().unwrap(), "-o", out.to_str().unwrap(), "--bits", "12"];
-        args.extend(extra);
+    let mut report = String::new();
+    for (out, extra) in [(&placed, "--timings"), (&kept, "--keep-positions")] {
+        let args = ["reconstruct", kitten.to_str().unwrap(), "-o", out.to_str().unwrap(), "--bits", "12", extra];
         let o = octowrap(&args);
         assert!(o.status.success(), "{}", text(&o.stderr));
+        report.push_str(&text(&o.stderr));
     }
+    // --timings reports the placement, including the moves it refused (the kitten has some).
+    let line = report.lines().find(|l| l.starts_with("MRQ line placement")).expect("placement line");
+    let refused: usize = line.split(" (").nth(1).and_then(|r| r.split(' ').next()).unwrap().parse().unwrap();
+    assert!(refused > 0, "{line}");
     let read = |p: &Path| octowrap_format::read_path(p, &octowrap_format::DecodeOptions::default()).unwrap().hierarchy;
     let (placed, kept) = (read(&placed), read(&kept));
     assert_eq!(placed.levels.len(), kept.levels.len());

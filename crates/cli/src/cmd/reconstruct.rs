@@ -99,7 +99,8 @@ pub struct Args {
     /// Also write DIR/level-K.ply for every level K.
     #[arg(long, value_name = "DIR")]
     pub all_levels: Option<PathBuf>,
-    /// Print the per-level, per-stage time table (like the paper's Table 2) on standard error.
+    /// Print the per-level, per-stage time table (like the paper's Table 2) on standard error; with
+    /// .mrq output also what the line placement did (vertices placed, kept, moves refused).
     #[arg(long)]
     pub timings: bool,
     #[command(flatten)]
@@ -181,12 +182,24 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
     let mrq_opts = args.mrq.options(false, &args.input);
-    if is_mrq && !args.keep_positions {
-        octowrap_format::place_on_prediction_lines(&mut r.hierarchy, &mrq_opts)
+    let placement = if is_mrq && !args.keep_positions {
+        let t = std::time::Instant::now();
+        let p = octowrap_format::place_on_prediction_lines(&mut r.hierarchy, &mrq_opts)
             .context("placing vertices on their prediction lines")?;
-    }
+        Some((p, t.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
     if args.timings {
         eprint!("{}", timing_table(&r));
+        if let Some((p, secs)) = placement {
+            eprintln!(
+                "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
+                 ({} of them because the move would fold a face or meet another vertex), {} without a line; \
+                 largest move {:.3e}, RMS {:.3e}",
+                p.placed, p.kept, p.reverted, p.without_line, p.max_move, p.rms_move
+            );
+        }
     }
     let h = &r.hierarchy;
     if let Some(dir) = &args.all_levels {
