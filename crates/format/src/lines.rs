@@ -78,9 +78,8 @@ const MIN_COSINE: f64 = 0.5;
 /// meets the plane at a grazing angle or too far away stay where they are (the encoder codes them
 /// with three residuals), and so do the vertices of level 1. So do the vertices whose move would
 /// fold, flip or collapse one of their faces, or land on another vertex's exact position (the
-/// level's moves are checked together once placed, and the harmful ones undone; the vertices
-/// placed after one of them on lines through it then sit off their lines, which costs bits, not
-/// exactness). Every other vertex, level 0's included, moves to its grid point (at most
+/// level's moves are checked together once placed, and the level is placed again without the
+/// harmful ones, so that the vertices placed after them get lines through where they stay). Every other vertex, level 0's included, moves to its grid point (at most
 /// half a step per axis), so that the file holds the result exactly. Topology and order are
 /// unchanged.
 ///
