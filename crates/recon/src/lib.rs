@@ -57,7 +57,10 @@
 //!   the oriented-sheet mask of `sheet`: a voxel whose neighbourhood is a flat single sheet of
 //!   points, oriented outwards by the coarser level's faces, refuses faces looking into the object.
 //!   Read literally, the paper's rules depend on visiting order, and in a prototype they both let
-//!   holes close and refused to wrap one-voxel protrusions.
+//!   holes close and refused to wrap one-voxel protrusions. A voxel too curved or too thinly
+//!   sampled for a plane of its own leans with its oriented neighbours when its points continue
+//!   their sheet in one thin layer (the curling rim of a hole), so the wrapping does not take the
+//!   inside of the shell there.
 //! * **The diagonal case (§3.5 case 3b)** is decided per voxel pair from one plane fitted to both
 //!   voxels' points (pass unless the joint RMS residual exceeds 0.2 voxel with 4+ points each),
 //!   not from the two voxels' separate normals, which broke sampled spheres.

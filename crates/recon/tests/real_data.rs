@@ -103,6 +103,26 @@ fn bunny_bottom_opening_is_a_boundary_not_interior() {
     assert!(low_boundary > 10, "only {low_boundary} boundary edges near the bottom");
 }
 
+/// Where the wrapping enters the bunny's open bottom, the rim's cells (their points curve there,
+/// so no flat sheet fits) once took faces on every side: a lip of the shell's inner side that the
+/// mapping then laid onto the outer wall, 116 and 254 intersecting face pairs at levels 5 and 6.
+/// Such cells now lean with their oriented neighbours (`sheet`, step 5).
+#[test]
+fn bunny_rim_does_not_fold_onto_its_wall() {
+    let Some(pts) = load("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(6);
+    let h = octowrap_recon::reconstruct(&pts, &o).expect("reconstructs");
+    let mut vo = octowrap_validate::Options::default();
+    vo.self_intersections = true;
+    for j in [5, 6] {
+        let r = octowrap_validate::validate_mesh(&h.levels[j].mesh, &vo);
+        let pairs = r.counts.self_intersections.expect("checked");
+        eprintln!("bunny level {j}: {pairs} intersecting face pairs");
+        assert!(pairs <= 30, "level {j}: {pairs} intersecting face pairs");
+    }
+}
+
 #[test]
 fn rabbit_kitten_and_lidar_are_manifold() {
     if let Some(pts) = load("stanford-bunny/reconstruction/bun_zipper_res2.ply") {
