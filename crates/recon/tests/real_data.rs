@@ -76,16 +76,22 @@ fn bunny_every_level_manifold_and_bottom_open() {
     }
 }
 
+/// The bunny's points and their reconstruction to `level` with the default options.
+fn bunny_to(level: u32) -> Option<(Vec<DVec3>, octowrap_mesh::Hierarchy)> {
+    let pts = load("stanford-bunny/reconstruction/bun_zipper.ply")?;
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(level);
+    let h = octowrap_recon::reconstruct(&pts, &o).expect("reconstructs");
+    Some((pts, h))
+}
+
 #[test]
 fn bunny_bottom_opening_is_a_boundary_not_interior() {
     // The bottom holes: faces near the bottom (lowest 3 % of the height) must not face upwards
     // into the body from below the scanned surface, i.e. no face there looks up with the points
     // of the bottom above it... simpler and stronger: the wrapped level 5 has boundary vertices
     // at the bottom.
-    let Some(pts) = load("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
-    let mut o = ReconOptions::default();
-    o.max_level = MaxLevel::Level(5);
-    let h = octowrap_recon::reconstruct(&pts, &o).expect("reconstructs");
+    let Some((pts, h)) = bunny_to(5) else { return };
     let m = &h.levels[5].mesh;
     let ymin = pts.iter().map(|p| p.y).fold(f64::MAX, f64::min);
     let ymax = pts.iter().map(|p| p.y).fold(f64::MIN, f64::max);
@@ -106,13 +112,10 @@ fn bunny_bottom_opening_is_a_boundary_not_interior() {
 /// Where the wrapping enters the bunny's open bottom, the rim's cells (their points curve there,
 /// so no flat sheet fits) once took faces on every side: a lip of the shell's inner side that the
 /// mapping then laid onto the outer wall, 116 and 254 intersecting face pairs at levels 5 and 6.
-/// Such cells now lean with their oriented neighbours (`sheet`, step 5).
+/// Such cells now lean with their oriented neighbours (`sheet`, step 4 of its docs).
 #[test]
 fn bunny_rim_does_not_fold_onto_its_wall() {
-    let Some(pts) = load("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
-    let mut o = ReconOptions::default();
-    o.max_level = MaxLevel::Level(6);
-    let h = octowrap_recon::reconstruct(&pts, &o).expect("reconstructs");
+    let Some((_, h)) = bunny_to(6) else { return };
     let mut vo = octowrap_validate::Options::default();
     vo.self_intersections = true;
     for j in [5, 6] {
