@@ -475,7 +475,7 @@ pub(crate) fn build(
     Mask { sheets, voxel: h, region }
 }
 
-/// The side unreliable voxel `i` leans to, if it does (step 5 of the module docs): at least
+/// The side unreliable voxel `i` leans to, if it does (item 4 of the module docs): at least
 /// [`LEAN_VOTES`] oriented neighbours in its 3x3x3 block whose normals agree (their sum at least
 /// [`LEAN_AGREEMENT`] of their count long), its points' mean within [`LEAN_OFFSET`] voxel of their
 /// planes on average, and its points spread less than [`LEAN_SPREAD`] voxel along the common
