@@ -155,9 +155,10 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
         };
         let mut base = before.clone();
         snap(&mut base, &grid, guard.as_ref(), |_| true);
-        let (best, mut positions, mut moved, refused) = place_guarded(faces, &base, &mut reach, &choose);
+        let areas = face_areas(faces, &base);
+        let (best, mut positions, mut moved, refused) = place_guarded(faces, &base, &areas, &mut reach, &choose);
         stats.reverted += refused;
-        let undone = revert_harmful_moves(faces, &base, &mut positions, &mut moved);
+        let undone = revert_harmful_moves(faces, &base, &areas, &mut positions, &mut moved);
         stats.reverted += undone;
         stats.kept += best.kept + undone;
         stats.without_line += best.none;
@@ -188,6 +189,7 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
 fn place_guarded(
     faces: &FaceList,
     base: &[DVec3],
+    areas: &[DVec3],
     reach: &mut [f64],
     choose: &dyn Fn(&[f64]) -> Candidate,
 ) -> (Candidate, Vec<DVec3>, Vec<bool>, usize) {
@@ -202,7 +204,7 @@ fn place_guarded(
             positions[old as usize] = p;
             moved[old as usize] = true;
         }
-        let harm = harmful_moves(faces, base, &positions, &moved);
+        let harm = harmful_moves(faces, base, areas, &positions, &moved);
         if harm.is_empty() || round == PLACEMENT_ROUNDS {
             return (best, positions, moved, refused);
         }
@@ -430,16 +432,16 @@ const PLACEMENT_ROUNDS: usize = 8;
 const MIN_AREA_KEPT: f64 = 0.1;
 
 /// The moved vertices (`moved[v]`, from `before[v]` to `positions[v]`) whose moves harm the
-/// mesh, ascending: every moved vertex of a face whose vector area along its former direction
-/// falls below [`MIN_AREA_KEPT`] of what it was (a fold, a flip or a collapse) or with two
-/// corners at one point, and every moved vertex at the exact position of another vertex.
-fn harmful_moves(faces: &FaceList, before: &[DVec3], positions: &[DVec3], moved: &[bool]) -> Vec<u32> {
+/// mesh, ascending: per face whose vector area along its former direction (`areas`, the faces'
+/// vector areas at `before`) falls below [`MIN_AREA_KEPT`] of what it was (a fold, a flip or a
+/// collapse) or with two corners at one point, its largest move; and every moved vertex at the
+/// exact position of another vertex.
+fn harmful_moves(faces: &FaceList, before: &[DVec3], areas: &[DVec3], positions: &[DVec3], moved: &[bool]) -> Vec<u32> {
     let mut harm = Vec::new();
-    for f in faces.iter() {
+    for (f, &old) in faces.iter().zip(areas) {
         if !f.iter().any(|&v| moved[v as usize]) {
             continue;
         }
-        let old = vector_area(before, f);
         let new = vector_area(positions, f);
         let len2 = old.length_squared();
         let kept = new.dot(old).partial_cmp(&(MIN_AREA_KEPT * len2));
@@ -472,10 +474,16 @@ fn harmful_moves(faces: &FaceList, before: &[DVec3], positions: &[DVec3], moved:
 
 /// Undoes the [`harmful_moves`] until none is left (each round undoes one move at least, and a
 /// face with all its moves undone is as it was). Returns the number of moves undone.
-fn revert_harmful_moves(faces: &FaceList, before: &[DVec3], positions: &mut [DVec3], moved: &mut [bool]) -> usize {
+fn revert_harmful_moves(
+    faces: &FaceList,
+    before: &[DVec3],
+    areas: &[DVec3],
+    positions: &mut [DVec3],
+    moved: &mut [bool],
+) -> usize {
     let mut reverted = 0;
     loop {
-        let harm = harmful_moves(faces, before, positions, moved);
+        let harm = harmful_moves(faces, before, areas, positions, moved);
         if harm.is_empty() {
             return reverted;
         }
@@ -485,6 +493,11 @@ fn revert_harmful_moves(faces: &FaceList, before: &[DVec3], positions: &mut [DVe
             reverted += 1;
         }
     }
+}
+
+/// Every face's [`vector_area`] at `positions`.
+fn face_areas(faces: &FaceList, positions: &[DVec3]) -> Vec<DVec3> {
+    faces.iter().map(|f| vector_area(positions, f)).collect()
 }
 
 /// A face's vector area (Newell's method: half the sum of its edges' cross products).
@@ -560,7 +573,7 @@ mod tests {
         // The centre slides within its four quads, a corner along the boundary, one out of plane.
         let moves = [(4, DVec3::new(1.3, 0.8, 0.0)), (0, DVec3::new(0.2, 0.0, 0.0)), (8, DVec3::new(2.0, 2.0, 0.4))];
         let (mut p, mut moved) = apply(&before, &moves);
-        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 0);
+        assert_eq!(revert_harmful_moves(&faces, &before, &face_areas(&faces, &before), &mut p, &mut moved), 0);
         for (v, x) in moves {
             assert_eq!(p[v as usize], x);
             assert!(moved[v as usize]);
@@ -572,7 +585,7 @@ mod tests {
         let (faces, before) = grid();
         // The centre jumps past the far corner of quad (1, 1): that quad flips, the others stretch.
         let (mut p, mut moved) = apply(&before, &[(4, DVec3::new(2.5, 2.5, 0.0)), (1, DVec3::new(1.1, 0.0, 0.0))]);
-        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 1);
+        assert_eq!(revert_harmful_moves(&faces, &before, &face_areas(&faces, &before), &mut p, &mut moved), 1);
         assert_eq!(p[4], before[4]);
         assert!(!moved[4]);
         // The boundary vertex's own move harmed nothing and stays.
@@ -587,7 +600,7 @@ mod tests {
         // tenth vertex, in no face, at (0, 2.5) (a harmless stretch of quad (0, 1) otherwise).
         before.push(DVec3::new(0.0, 2.5, 0.0));
         let (mut p, mut moved) = apply(&before, &[(2, before[1]), (6, before[9]), (0, DVec3::new(0.2, 0.0, 0.0))]);
-        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 2);
+        assert_eq!(revert_harmful_moves(&faces, &before, &face_areas(&faces, &before), &mut p, &mut moved), 2);
         assert_eq!((p[2], p[6]), (before[2], before[6]));
         assert_eq!(moved, [true, false, false, false, false, false, false, false, false, false]);
     }
@@ -601,7 +614,7 @@ mod tests {
         before.push(DVec3::new(3.0, 1.0, 0.0));
         let moves = [(4, DVec3::new(2.6, 0.5, 0.0)), (5, DVec3::new(3.0, 1.0, 0.0)), (7, DVec3::new(1.0, 1.9, 0.0))];
         let (mut p, mut moved) = apply(&before, &moves);
-        assert_eq!(revert_harmful_moves(&faces, &before, &mut p, &mut moved), 2);
+        assert_eq!(revert_harmful_moves(&faces, &before, &face_areas(&faces, &before), &mut p, &mut moved), 2);
         assert_eq!(moved, [false, false, false, false, false, false, false, true, false, false]);
         assert_eq!(p[..7], before[..7]);
     }
