@@ -1,6 +1,6 @@
-//! Conformance vectors in `fixtures/format/`: `valid/` files must decode to their golden dump
-//! (`NAME.mrq` beside `NAME.json`), `invalid/` files must fail with the error kind listed in
-//! `invalid/README.md`, `regress/` files must decode to their dump too.
+//! Conformance vectors in `fixtures/format/` (spec §9): `valid/` files must decode to their golden
+//! dump (`NAME.mrq` beside `NAME.json`), `invalid/` files must fail with the error class of spec
+//! §7.3 listed in `invalid/README.md`, `regress/` files must decode to their dump too.
 //!
 //! To rewrite the vectors after an intended format change:
 //! `OCTOWRAP_REGEN_FIXTURES=1 cargo test --release -p octowrap-format --test conformance`
@@ -9,12 +9,12 @@
 use std::path::{Path, PathBuf};
 
 use octowrap_format::fuzzing::{payloads, reseal};
-use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
+use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::tamper::fix_preamble_checksum;
 use octowrap_format::{
     DecodeOptions, EncodeOptions, Error, Limits, Metadata, Quantization, decode, encode, place_on_prediction_lines,
 };
-use octowrap_mesh::{DVec3, FaceList, FaceOrigin, Hierarchy, Mesh};
+use octowrap_mesh::{DVec3, FaceList, FaceOrigin, Hierarchy, Level, Mesh, Quadrant};
 use serde_json::json;
 
 fn dir(sub: &str) -> PathBuf {
@@ -93,7 +93,100 @@ fn valid_set() -> Vec<(&'static str, Vec<u8>)> {
         ),
         ("v3_cube3_subdivision_q10", encode(&cube_hierarchy(3, Edits::none(), 6), &v3(q(10))).unwrap()),
         ("v3_cube3_generic_q12", encode(&without_lattice(cube_hierarchy(3, Edits::default(), 5)), &v3(q(12))).unwrap()),
+        // The spec's worked example (Appendix B): one quad and its canonical subdivision.
+        ("two_level_quad_q4", encode(&subdivided(one_quad(), 0.0, 1), &v3(q(4))).unwrap()),
+        // Mode 1 under a parent whose faces repeat vertices (edges `{a, a}`, edges met twice).
+        ("generic_repeated_parent_vertices_q12", encode(&subdivided(repeating_soup(), 0.3, 2), &v3(q(12))).unwrap()),
+        // Mode 3 with lattice predictor 0 and line geometry (the encoder's choice for this seed).
+        (
+            "v3_cube3_lattice_lines_predictor0_q12",
+            encode(&placed_with(cube_hierarchy(3, Edits::default(), 12), &v3(q(12))), &v3(q(12))).unwrap(),
+        ),
+        // Predictions beyond the grid range, which `clamp` (spec §1.7) limits: a 28-bit grid with
+        // every vertex below level 0 pressed onto the cube's face x = 1 (grid x = 2^28).
+        ("clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &q(28)).unwrap()),
+        ("v3_clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &v3(q(28))).unwrap()),
     ]
+}
+
+/// The unit square as one quad.
+fn one_quad() -> Mesh {
+    let mut quad = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+    quad.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+    quad
+}
+
+/// A small polygon soup some of whose faces repeat a vertex.
+fn repeating_soup() -> Mesh {
+    let mesh = polygon_mesh(8, 6, 7);
+    let repeats = mesh.faces.iter().filter(|f| (1..f.len()).any(|i| f[..i].contains(&f[i]))).count();
+    assert!(repeats >= 2, "the soup must repeat vertices within faces");
+    mesh
+}
+
+/// `mesh` and its canonical subdivision (spec §5.4: a vertex per parent vertex, edge and face;
+/// edges numbered by first appearance; a child per parent corner), the new vertices moved by up
+/// to `noise` (deterministic).
+fn subdivided(mesh: Mesh, noise: f64, seed: u64) -> Hierarchy {
+    let p = &mesh.vertices.positions;
+    let mut edges: Vec<(u32, u32)> = Vec::new();
+    let mut edge_points = Vec::new();
+    let mut edge_of = |a: u32, b: u32| {
+        let key = (a.min(b), a.max(b));
+        if let Some(e) = edges.iter().position(|&x| x == key) {
+            return e;
+        }
+        edges.push(key);
+        edge_points.push((p[a as usize] + p[b as usize]) / 2.0);
+        edges.len() - 1
+    };
+    let mut corner_edges = Vec::new();
+    for f in mesh.faces.iter() {
+        let n = f.len();
+        corner_edges.push((0..n).map(|i| edge_of(f[i], f[(i + 1) % n])).collect::<Vec<_>>());
+    }
+    let (nv, ne) = (p.len() as u32, edge_points.len() as u32);
+    let mut positions = p.clone();
+    positions.extend(edge_points);
+    positions.extend(mesh.faces.iter().map(|f| f.iter().map(|&v| p[v as usize]).sum::<DVec3>() / f.len() as f64));
+    let mut rng = Rng::new(seed);
+    for x in &mut positions[nv as usize..] {
+        *x += DVec3::new(rng.f64() - 0.5, rng.f64() - 0.5, rng.f64() - 0.5) * noise;
+    }
+    let mut quads = Vec::new();
+    let mut origins = Vec::new();
+    for (pf, f) in mesh.faces.iter().enumerate() {
+        let n = f.len();
+        let e = &corner_edges[pf];
+        for q in 0..n {
+            quads.push([f[q], nv + e[q] as u32, nv + ne + pf as u32, nv + e[(q + n - 1) % n] as u32]);
+            // (The hierarchy model links quadrants 0-3 only; the other children are created faces.)
+            origins.push(if q < 4 {
+                FaceOrigin::Subface { parent: pf as u32, quadrant: Quadrant(q as u8) }
+            } else {
+                FaceOrigin::Created
+            });
+        }
+    }
+    let mut fine = Mesh::from_positions(positions);
+    fine.faces = FaceList::from_quads(&quads);
+    let mut h = Hierarchy::single(mesh);
+    h.levels.push(Level { mesh: fine, origins, lattice: None });
+    h
+}
+
+/// `h` with every vertex inside the unit cube, and every vertex below level 0 moved onto its face
+/// x = 1.
+fn pressed(mut h: Hierarchy) -> Hierarchy {
+    for (k, level) in h.levels.iter_mut().enumerate() {
+        for x in &mut level.mesh.vertices.positions {
+            *x = x.clamp(DVec3::ZERO, DVec3::ONE);
+            if k > 0 {
+                x.x = 1.0;
+            }
+        }
+    }
+    h
 }
 
 /// `opts` writing format version 3.
@@ -127,8 +220,10 @@ fn regress_set() -> Vec<(&'static str, Vec<u8>)> {
     ]
 }
 
-/// (file, expected error kind, what is wrong, bytes).
-fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
+/// (file, violated section, error class of spec §7.3, what is wrong, bytes).
+type Invalid = (&'static str, &'static str, &'static str, &'static str, Vec<u8>);
+
+fn invalid_set() -> Vec<Invalid> {
     let base = encode(&cube_hierarchy(3, Edits::default(), 3), &q(12)).unwrap();
     let good_payloads = payloads(&base).unwrap();
     let level1 = |b: &[u8]| {
@@ -138,50 +233,51 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
     let mut out = Vec::new();
     let mut b = base.clone();
     b[1] = b'X';
-    out.push(("bad_magic.mrq", "BadMagic", "the second magic byte is `X`", b));
+    out.push(("bad_magic.mrq", "§3.1", "not-mrq", "the second magic byte is `X`", b));
     let mut b = base.clone();
     b[8] = 4;
-    out.push(("version_4.mrq", "UnsupportedVersion", "version 4", b));
-    out.push(("truncated_header.mrq", "Truncated", "the file ends inside the header", base[..60].to_vec()));
+    out.push(("version_4.mrq", "§3.1", "unsupported-version", "version 4", b));
+    out.push(("truncated_header.mrq", "§3.1", "truncated", "the file ends inside the header", base[..60].to_vec()));
     let l1 = level1(&base);
     let cut = (l1.offset + l1.stored_size / 2) as usize;
-    out.push(("truncated_level1.mrq", "Truncated", "the file ends inside level 1", base[..cut].to_vec()));
+    out.push(("truncated_level1.mrq", "§3.5", "truncated", "the file ends inside level 1", base[..cut].to_vec()));
     let mut b = base.clone();
     let meta_byte = 112 + 48 * 3 + 2;
     b[meta_byte] ^= 1;
-    out.push(("preamble_checksum.mrq", "ChecksumMismatch", "a metadata byte changed", b));
+    out.push(("preamble_checksum.mrq", "§3.4", "checksum", "a metadata byte changed", b));
     let mut b = base.clone();
     b[(l1.offset + 5) as usize] ^= 0x10;
-    out.push(("level1_checksum.mrq", "ChecksumMismatch", "a byte of level 1's stored bytes changed", b));
+    out.push(("level1_checksum.mrq", "§3.5", "checksum", "a byte of level 1's stored bytes changed", b));
     let mut b = base.clone();
     b[12] |= 8;
-    out.push(("reserved_flag.mrq", "Invalid", "reserved header flag bit 3 set", b));
+    out.push(("reserved_flag.mrq", "§3.1", "invalid", "reserved header flag bit 3 set", b));
     let mut b = base.clone();
     b[16..20].copy_from_slice(&1000u32.to_le_bytes());
-    out.push(("too_many_levels.mrq", "LimitExceeded", "level_count 1000", b));
+    out.push(("too_many_levels.mrq", "§7.2", "limit", "level_count 1000", b));
     let mut b = base.clone();
     let off = 112 + 48; // level 1's offset field
     let v = u64::from_le_bytes(b[off..off + 8].try_into().unwrap()) + 1;
     b[off..off + 8].copy_from_slice(&v.to_le_bytes());
     fix_preamble_checksum(&mut b);
-    out.push(("level_gap.mrq", "Invalid", "level 1 does not start where level 0 ends", b));
+    out.push(("level_gap.mrq", "§3.2", "invalid", "level 1 does not start where level 0 ends", b));
     let mut b = base.clone();
     let off = 112 + 48 + 32; // level 1's vertex_count
     let v = u32::from_le_bytes(b[off..off + 4].try_into().unwrap()) + 1;
     b[off..off + 4].copy_from_slice(&v.to_le_bytes());
     fix_preamble_checksum(&mut b);
-    out.push(("count_mismatch.mrq", "Invalid", "level 1's vertex_count differs from its block header", b));
+    out.push(("count_mismatch.mrq", "§4.1", "invalid", "level 1's vertex_count differs from its block header", b));
     let mut p = good_payloads.clone();
     p[1][0] = 7;
-    out.push(("unknown_mode.mrq", "Invalid", "level 1 block mode 7", reseal(&base, &p, None).unwrap()));
+    out.push(("unknown_mode.mrq", "§4.1", "invalid", "level 1 block mode 7", reseal(&base, &p, None).unwrap()));
     let mut p = good_payloads.clone();
     p[0][0] = 2;
-    out.push(("lattice_mode_at_level0.mrq", "Invalid", "level 0 in mode 2", reseal(&base, &p, None).unwrap()));
+    out.push(("lattice_mode_at_level0.mrq", "§4.1", "invalid", "level 0 in mode 2", reseal(&base, &p, None).unwrap()));
     let mut p = good_payloads.clone();
     p[2].push(0);
     out.push((
         "trailing_byte.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 2's payload has one byte more than its streams",
         reseal(&base, &p, None).unwrap(),
     ));
@@ -193,17 +289,20 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
     p[1][rot_at] |= 0x80;
     out.push((
         "reserved_rotation_bits.mrq",
-        "Invalid",
+        "§5.2",
+        "invalid",
         "a rotation byte of level 1 with bit 7 set",
         reseal(&base, &p, None).unwrap(),
     ));
     out.extend(invalid_lines_set());
     out.extend(invalid_v3_set());
+    out.extend(invalid_mode3_set());
     let mut p = good_payloads;
     p[1][64] |= 0xf0;
     out.push((
         "child_mask_high_bits.mrq",
-        "Invalid",
+        "§5.3",
+        "invalid",
         "a lattice child mask with bits 4-7 set",
         reseal(&base, &p, None).unwrap(),
     ));
@@ -211,18 +310,19 @@ fn invalid_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
 }
 
 /// Invalid files about line geometry (spec §6.6), from a placed hierarchy.
-fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
+fn invalid_lines_set() -> Vec<Invalid> {
     let mut out = Vec::new();
     let lines = encode(&placed(cube_hierarchy(3, Edits::default(), 3)), &q(12)).unwrap();
     let mut b = lines.clone();
     b[8] = 1;
     fix_preamble_checksum(&mut b);
-    out.push(("lines_in_version_1.mrq", "Invalid", "line geometry (spec §6.6) in a version 1 file", b));
+    out.push(("lines_in_version_1.mrq", "§4.1", "invalid", "line geometry (spec §6.6) in a version 1 file", b));
     let mut p = payloads(&lines).unwrap();
     p[0][2] |= 2;
     out.push((
         "lines_at_level_0.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 0's block header sets the line bit",
         reseal(&lines, &p, None).unwrap(),
     ));
@@ -230,7 +330,8 @@ fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>
     p[0][3] = 1;
     out.push((
         "line_shift_without_lines.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 0's block header has line_shift 1 without the line bit",
         reseal(&lines, &p, None).unwrap(),
     ));
@@ -238,7 +339,8 @@ fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>
     p[2][3] = 17;
     out.push((
         "line_shift_17.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 2's line_shift is 17 (at most 16)",
         reseal(&lines, &p, None).unwrap(),
     ));
@@ -246,7 +348,8 @@ fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>
     p[1][2] |= 4;
     out.push((
         "reserved_predictor_bits.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 1's predictor byte has bit 2 set",
         reseal(&lines, &p, None).unwrap(),
     ));
@@ -254,14 +357,14 @@ fn invalid_lines_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>
 }
 
 /// Invalid files of format version 3 (spec §5.9, §6.8).
-fn invalid_v3_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> {
+fn invalid_v3_set() -> Vec<Invalid> {
     let mut out = Vec::new();
     let joins = Edits { join: 0.3, split: 0.1, ..Edits::default() };
     let base = encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap();
     let mut b = base.clone();
     b[8] = 2;
     fix_preamble_checksum(&mut b);
-    out.push(("v3_mode_3_in_version_2.mrq", "Invalid", "a version 2 file with mode 3 levels", b));
+    out.push(("v3_mode_3_in_version_2.mrq", "§4.1", "invalid", "a version 2 file with mode 3 levels", b));
     let good = payloads(&base).unwrap();
     let stream = |p: &[u8], i: usize| {
         let sizes: Vec<usize> =
@@ -274,8 +377,9 @@ fn invalid_v3_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> 
     p[2][r.start] += 1;
     out.push((
         "v3_extra_count.mrq",
-        "Invalid",
-        "level 2's extra_names count disagrees with vertex_count",
+        "§5.5",
+        "invalid",
+        "level 2 (mode 1): its extra_names count is one higher than the names that follow",
         reseal(&base, &p, None).unwrap(),
     ));
     // Level 1's predictor byte sets a reserved bit.
@@ -283,7 +387,8 @@ fn invalid_v3_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> 
     p[1][2] |= 4;
     out.push((
         "v3_reserved_predictor_bits.mrq",
-        "Invalid",
+        "§4.1",
+        "invalid",
         "level 1 (mode 3) sets predictor bit 2",
         reseal(&base, &p, None).unwrap(),
     ));
@@ -297,24 +402,200 @@ fn invalid_v3_set() -> Vec<(&'static str, &'static str, &'static str, Vec<u8>)> 
     counts[2].0 += 1;
     out.push((
         "v3_vertex_count_high.mrq",
-        "Invalid",
-        "level 2 claims one vertex more than its corners and extras number",
+        "§5.5",
+        "invalid",
+        "level 2 (mode 1) claims one vertex more than its names and splits number",
         reseal(&base, &p, Some(&counts)).unwrap(),
     ));
     out
 }
 
-fn kind(e: &Error) -> &'static str {
+/// The bytes of stream `i` (spec §4.2) of payload `p`.
+fn stream_bytes(p: &[u8], i: usize) -> Vec<u8> {
+    let size = |j: usize| u32::from_le_bytes(p[16 + 4 * j..20 + 4 * j].try_into().unwrap()) as usize;
+    let at = 64 + (0..i).map(size).sum::<usize>();
+    p[at..at + size(i)].to_vec()
+}
+
+/// Payload `p` with stream `i` (spec §4.2) rewritten by `edit`, the block header's sizes updated.
+fn with_stream(p: &[u8], i: usize, edit: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let sizes: Vec<usize> =
+        (0..12).map(|j| u32::from_le_bytes(p[16 + 4 * j..20 + 4 * j].try_into().unwrap()) as usize).collect();
+    let mut streams: Vec<Vec<u8>> = Vec::new();
+    let mut at = 64;
+    for &s in &sizes {
+        streams.push(p[at..at + s].to_vec());
+        at += s;
+    }
+    edit(&mut streams[i]);
+    let mut out = p[..16].to_vec();
+    for s in &streams {
+        out.extend(u32::try_from(s.len()).unwrap().to_le_bytes());
+    }
+    for s in streams {
+        out.extend(s);
+    }
+    out
+}
+
+fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    while v >= 0x80 {
+        out.push((v & 0x7f) as u8 | 0x80);
+        v >>= 7;
+    }
+    out.push(v as u8);
+}
+
+fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
+/// Invalid files that break the rules of mode 3's corner resolution (spec §5.9), all in level 1
+/// (mode 3, depth 1: corner keys below 27) of `regress/v3_splits_and_exceptions.mrq`'s hierarchy,
+/// whose first exception is at corner 0 and numbers vertex 0.
+fn invalid_mode3_set() -> Vec<Invalid> {
+    let joins = Edits { join: 0.3, split: 0.1, ..Edits::default() };
+    let base = encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap();
+    let good = payloads(&base).unwrap();
+    assert_eq!(good[1][0], 3, "level 1 is in mode 3");
+    let (extra_keys, split_keys, exceptions, choices) = (6, 7, 8, 9);
+    let read = |i: usize| stream_bytes(&good[1], i);
+    // Exceptions start with: count, corner 0, vertex 0 (= next: a new vertex), its key delta.
+    let exc = read(exceptions);
+    assert!(exc[0] > 1 && exc[1] == 0 && exc[2] == 0 && exc[3] < 0x80 && exc[4] < 0x80, "{:?}", &exc[..6]);
+    let splits = read(split_keys);
+    let mut split_set = Vec::new();
+    let mut key = 0u64;
+    for i in 0..usize::from(splits[0]) {
+        key = if i == 0 { u64::from(splits[1]) } else { key + 1 + u64::from(splits[1 + i]) };
+        split_set.push(key);
+    }
+    assert_eq!(*split_set.last().unwrap(), 26, "the last split key is the last key of depth 1");
+    let level = |p: Vec<Vec<u8>>| reseal(&base, &p, None).unwrap();
+    let mut out = Vec::new();
+
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], exceptions, |s| s[2] = 1);
+    out.push((
+        "v3_exception_vertex_beyond_next.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's first exception (corner 0) names vertex 1 while only 0 may be numbered",
+        level(p),
+    ));
+
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], exceptions, |s| {
+        let mut delta = Vec::new();
+        put_varint(&mut delta, zigzag(1_000_000));
+        s.splice(3..4, delta);
+    });
+    out.push((
+        "v3_exception_key_not_lattice.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's first exception numbers a vertex whose key is no corner key of depth 1",
+        level(p),
+    ));
+
+    // An exception inserted at corner 1 that numbers vertex 1 with the key of vertex 0 (numbered
+    // at corner 0), which is no split key.
+    let decoded = decode(&base[..], &DecodeOptions::default()).unwrap().hierarchy;
+    let l1 = &decoded.levels[1];
+    let corners = &l1.lattice.as_ref().unwrap().vertex_corners;
+    let key_of = |c: [u32; 3]| u64::from(c[0]) + 3 * u64::from(c[1]) + 9 * u64::from(c[2]);
+    let k0 = key_of(corners[0]);
+    let pk1 = key_of(corners[l1.mesh.faces.face(0)[1] as usize]);
+    assert!(!split_set.contains(&k0) && exc[4] >= 1, "vertex 0's key {k0} is a split key");
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], exceptions, |s| {
+        let mut head = vec![exc[0] + 1, 0, 0, exc[3], 0, 1];
+        put_varint(&mut head, zigzag(k0 as i64 - pk1 as i64));
+        head.push(exc[4] - 1);
+        s.splice(0..5, head);
+    });
+    out.push((
+        "v3_key_numbered_twice.mrq",
+        "§5.9",
+        "invalid",
+        "level 1: an exception at corner 1 numbers a second vertex under vertex 0's key, which is no split key",
+        level(p),
+    ));
+
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], choices, |s| s[0] = 100);
+    out.push((
+        "v3_choice_beyond_list.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's first choice is 100, beyond the split key's list",
+        level(p),
+    ));
+
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], split_keys, |s| *s.last_mut().unwrap() += 1);
+    out.push((
+        "v3_split_key_not_lattice.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's last split key is 27, no corner key of depth 1",
+        level(p),
+    ));
+
+    let extras = read(extra_keys);
+    assert!(extras[0] >= 1 && extras[1] < 0x80, "{extras:?}");
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], extra_keys, |s| {
+        let mut delta = Vec::new();
+        put_varint(&mut delta, zigzag(1_000_000));
+        s.splice(1..2, delta);
+    });
+    out.push((
+        "v3_extra_key_not_lattice.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's first extra vertex has a key that is no corner key of depth 1",
+        level(p),
+    ));
+
+    let mut p = good.clone();
+    p[1] = with_stream(&good[1], extra_keys, |s| s[0] += 1);
+    out.push((
+        "v3_extra_keys_count.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's extra_keys count is one more than vertex_count minus the vertices its corners number",
+        level(p),
+    ));
+
+    // vertex_count lowered below what the corners alone number (table and block agree).
+    let mut p = good;
+    let nv = u32::from_le_bytes(p[1][4..8].try_into().unwrap()) - u32::from(extras[0]) - 1;
+    p[1][4..8].copy_from_slice(&nv.to_le_bytes());
+    let info = octowrap_format::read_info(&base[..], &Limits::default()).unwrap();
+    let mut counts: Vec<(u32, u32, u32)> =
+        info.levels.iter().map(|l| (l.vertex_count, l.face_count, l.corner_count)).collect();
+    counts[1].0 = nv;
+    out.push((
+        "v3_corners_number_too_many.mrq",
+        "§5.9",
+        "invalid",
+        "level 1's corners number one vertex more than its vertex_count",
+        reseal(&base, &p, Some(&counts)).unwrap(),
+    ));
+    out
+}
+
+/// The error class of spec §7.3 that the reference decoder's error belongs to.
+fn class(e: &Error) -> &'static str {
     match e {
-        Error::BadMagic { .. } => "BadMagic",
-        Error::UnsupportedVersion { .. } => "UnsupportedVersion",
-        Error::Truncated { .. } => "Truncated",
-        Error::ChecksumMismatch { .. } => "ChecksumMismatch",
-        Error::LimitExceeded { .. } => "LimitExceeded",
-        Error::Invalid { .. } => "Invalid",
-        Error::Zstd { .. } => "Zstd",
-        Error::NoSuchLevel { .. } => "NoSuchLevel",
-        _ => "Io",
+        Error::BadMagic { .. } => "not-mrq",
+        Error::UnsupportedVersion { .. } => "unsupported-version",
+        Error::Truncated { .. } => "truncated",
+        Error::ChecksumMismatch { .. } => "checksum",
+        Error::LimitExceeded { .. } => "limit",
+        Error::Invalid { .. } | Error::Zstd { .. } => "invalid",
+        _ => "other",
     }
 }
 
@@ -383,15 +664,18 @@ fn invalid_files_fail_as_stated() {
     let readme = dir("invalid").join("README.md");
     if regen() {
         let mut text = String::from(
-            "# Invalid MRQ files\n\nRule: every file here MUST be rejected by a decoder, with the error named below \
-             (the reference decoder's `Error` variant), and never crash it. Generated by \
-             `crates/format/tests/conformance.rs` (`OCTOWRAP_REGEN_FIXTURES=1`) from `valid/cube3_lattice_q12.mrq`'s \
-             hierarchy.\n\n| file | expected error | what is wrong |\n|---|---|---|\n",
+            "# Invalid MRQ files\n\nRule: every file here MUST be rejected by a decoder, and never crash it. Per \
+             file, the table names the section of `spec/FORMAT.md` the file violates and the error class of spec \
+             §7.3 that a decoder checking in the order of spec §7.1 reports. Generated by \
+             `crates/format/tests/conformance.rs` (`OCTOWRAP_REGEN_FIXTURES=1`), most from \
+             `valid/cube3_lattice_q12.mrq`'s hierarchy, the `v3_` files from \
+             `regress/v3_splits_and_exceptions.mrq`'s.\n\n| file | violates | error class | what is wrong \
+             |\n|---|---|---|---|\n",
         );
-        for (name, kind, what, bytes) in invalid_set() {
+        for (name, section, class, what, bytes) in invalid_set() {
             std::fs::write(dir("invalid").join(name), bytes).unwrap();
             text += "| ";
-            text += &[name, kind, what].join(" | ");
+            text += &[name, section, class, what].join(" | ");
             text += " |\n";
         }
         std::fs::write(&readme, text).unwrap();
@@ -400,13 +684,13 @@ fn invalid_files_fail_as_stated() {
     let mut n = 0;
     for line in text.lines().filter(|l| l.starts_with("| ") && l.contains(".mrq")) {
         let cells: Vec<&str> = line.split('|').map(str::trim).collect();
-        let (name, want) = (cells[1], cells[2]);
+        let (name, want) = (cells[1], cells[3]);
         let bytes = std::fs::read(dir("invalid").join(name)).unwrap();
         let mut opts = DecodeOptions::default();
         opts.limits = Limits::strict();
         match decode(&bytes[..], &opts) {
             Ok(_) => panic!("{name} decoded, expected {want}"),
-            Err(e) => assert_eq!(kind(&e), want, "{name}: {e}"),
+            Err(e) => assert_eq!(class(&e), want, "{name}: {e}"),
         }
         n += 1;
     }
