@@ -22,6 +22,22 @@ pub const CHOICES: usize = 9;
 pub const RAW_LATTICE: usize = 10;
 pub const GEOMETRY: usize = 11;
 
+/// §4.2: the stream names of modes 0-2.
+const NAMES: [&str; 12] = [
+    "child_masks",
+    "depths",
+    "rotations",
+    "created_keys",
+    "face_sizes",
+    "corners",
+    "extra_names",
+    "splits",
+    "exceptions",
+    "choices",
+    "raw_lattice",
+    "geometry",
+];
+
 /// §4.1: the block header's fields a level's sections need.
 #[derive(Clone, Copy, Debug)]
 pub struct BlockHeader {
@@ -100,20 +116,6 @@ pub fn split<'a>(k: usize, raw: &'a [u8], e: &Entry, file: FileContext) -> Resul
     require(counts == (e.vertex_count, e.face_count, e.corner_count), || "counts differ from the table".into())?;
     let sizes: Vec<u64> = (0..12).map(|i| u64::from(u32_at(16 + 4 * i))).collect();
     require(64 + sizes.iter().sum::<u64>() == raw.len() as u64, || "stream sizes do not fill the block".into())?;
-    const NAMES: [&str; 12] = [
-        "child_masks",
-        "depths",
-        "rotations",
-        "created_keys",
-        "face_sizes",
-        "corners",
-        "extra_names",
-        "splits",
-        "exceptions",
-        "choices",
-        "raw_lattice",
-        "geometry",
-    ];
     let mut streams = Vec::new();
     let mut at = 64usize;
     for (i, &size) in sizes.iter().enumerate() {
@@ -128,7 +130,18 @@ pub fn split<'a>(k: usize, raw: &'a [u8], e: &Entry, file: FileContext) -> Resul
     // §4.2: the streams each mode uses.
     let used: &[usize] = match mode {
         0 => &[FACE_SIZES, CORNERS, RAW_LATTICE, GEOMETRY],
-        1 => &[CHILD_MASKS, ROTATIONS, FACE_SIZES, CORNERS, EXTRA_NAMES, SPLITS, EXCEPTIONS, CHOICES, RAW_LATTICE, GEOMETRY],
+        1 => &[
+            CHILD_MASKS,
+            ROTATIONS,
+            FACE_SIZES,
+            CORNERS,
+            EXTRA_NAMES,
+            SPLITS,
+            EXCEPTIONS,
+            CHOICES,
+            RAW_LATTICE,
+            GEOMETRY,
+        ],
         _ => &[CHILD_MASKS, DEPTHS, ROTATIONS, CREATED_KEYS, EXTRA_NAMES, SPLITS, EXCEPTIONS, CHOICES, GEOMETRY],
     };
     for (i, s) in streams.iter().enumerate() {

@@ -4,8 +4,8 @@
 use super::block::{BlockHeader, FileContext};
 use super::geometry3;
 use super::primitives::{
-    GRID, Result, Stream, clamp3, cross128, require, round_away, round_div, sub3, three_times_saturated,
-    to_f64, unzigzag, wide,
+    GRID, Result, Stream, clamp3, cross128, require, round_away, round_div, sub3, three_times_saturated, to_f64,
+    unzigzag, wide,
 };
 use super::topology::{Level, Topology, axes, canonical_corners, corner_list};
 
@@ -59,7 +59,8 @@ impl Values {
             n_lines = (0..nv).filter(|&v| flags[v / 8] >> (v % 8) & 1 == 1).count();
         }
         let params = if lines { g.plane_block(n_lines, 4)? } else { Vec::new() };
-        let residuals = [g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?];
+        let residuals =
+            [g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?];
         Ok(Self { lines, flags, params, residuals, next_param: 0, next_residual: 0 })
     }
 
@@ -123,6 +124,7 @@ pub fn decode(
 }
 
 /// §6.2: contexts and passes of modes 0, 1 and 2.
+#[allow(clippy::too_many_lines)] // spec §6.2 step by step, both passes
 fn two_passes(
     k: usize,
     h: &BlockHeader,

@@ -51,7 +51,9 @@ fn decode(bytes: &[u8]) -> Result<File> {
             if ctx.exact {
                 l.exact.clone()
             } else {
-                l.q.iter().map(|q| [0, 1, 2].map(|a| h.origin[a] + primitives::to_f64(i128::from(q[a])) * h.step)).collect()
+                l.q.iter()
+                    .map(|q| [0, 1, 2].map(|a| h.origin[a] + primitives::to_f64(i128::from(q[a])) * h.step))
+                    .collect()
             }
         })
         .collect();
@@ -109,7 +111,7 @@ fn compare_with_reference(path: &Path, bytes: &[u8], ours: &File) {
     assert_eq!(ours_meta, theirs_meta, "{name}: metadata");
     for (k, (l, r)) in ours.levels.iter().zip(&h.levels).enumerate() {
         let bits = |p: &[[f64; 3]]| p.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>();
-        let reference: Vec<[f64; 3]> = r.mesh.vertices.positions.iter().map(|p| p.to_array()).collect();
+        let reference: Vec<[f64; 3]> = r.mesh.vertices.positions.iter().map(octowrap_mesh::DVec3::to_array).collect();
         assert_eq!(bits(&ours.positions[k]), bits(&reference), "{name} level {k}: positions");
         let faces: Vec<Vec<u32>> = r.mesh.faces.iter().map(<[u32]>::to_vec).collect();
         assert_eq!(l.faces, faces, "{name} level {k}: faces");

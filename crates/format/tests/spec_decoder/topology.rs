@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 
 use super::block::{
-    BlockHeader, CHILD_MASKS, CHOICES, CORNERS, CREATED_KEYS, DEPTHS, EXCEPTIONS, EXTRA_KEYS, EXTRA_NAMES,
-    FACE_SIZES, RAW_LATTICE, ROTATIONS, SPLIT_KEYS, SPLITS,
+    BlockHeader, CHILD_MASKS, CHOICES, CORNERS, CREATED_KEYS, DEPTHS, EXCEPTIONS, EXTRA_KEYS, EXTRA_NAMES, FACE_SIZES,
+    RAW_LATTICE, ROTATIONS, SPLIT_KEYS, SPLITS,
 };
 use super::primitives::{Result, Stream, gap_next, invalid, require};
 
@@ -287,12 +287,8 @@ pub fn mode1(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
                 "more subfaces than face_count or corner_count allow".into()
             })?;
             let r = rotation_byte(&mut st[ROTATIONS])?;
-            let layout = [
-                u64::from(face[q]),
-                vp + corner_edge[p][q],
-                vp + ep + p as u64,
-                vp + corner_edge[p][(q + n - 1) % n],
-            ];
+            let layout =
+                [u64::from(face[q]), vp + corner_edge[p][q], vp + ep + p as u64, vp + corner_edge[p][(q + n - 1) % n]];
             for i in 0..4 {
                 predicted.push(Some(layout[pos(r, i)]));
                 cpos.push(Some(pos(r, i) as u8));
@@ -517,6 +513,7 @@ enum Entry {
     List(Vec<u32>),
 }
 
+#[allow(clippy::too_many_lines)] // spec §5.9 step by step
 pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -> Result<Topology> {
     let nc = h.corner_count as u64;
     // Step 1.
@@ -550,8 +547,7 @@ pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
     }
     // Step 5: resolution.
     let mut indices = Vec::with_capacity(h.corner_count);
-    for c in 0..h.corner_count {
-        let pk = lf.pk[c];
+    for (c, &pk) in lf.pk.iter().enumerate() {
         if next_exception == Some(c as u64) {
             let next = vertex_corners.len() as u64;
             let v = st[EXCEPTIONS].varint()?;
