@@ -438,12 +438,15 @@ fn with_stream(p: &[u8], i: usize, edit: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
     out
 }
 
-fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+/// `v` as a varint (spec §1.3).
+fn varint(mut v: u64) -> Vec<u8> {
+    let mut out = Vec::new();
     while v >= 0x80 {
         out.push((v & 0x7f) as u8 | 0x80);
         v >>= 7;
     }
     out.push(v as u8);
+    out
 }
 
 fn zigzag(v: i64) -> u64 {
@@ -486,11 +489,7 @@ fn invalid_mode3_set() -> Vec<Invalid> {
     ));
 
     let mut p = good.clone();
-    p[1] = with_stream(&good[1], exceptions, |s| {
-        let mut delta = Vec::new();
-        put_varint(&mut delta, zigzag(1_000_000));
-        s.splice(3..4, delta);
-    });
+    p[1] = with_stream(&good[1], exceptions, |s| drop(s.splice(3..4, varint(zigzag(1_000_000)))));
     out.push((
         "v3_exception_key_not_lattice.mrq",
         "§5.9",
@@ -511,7 +510,7 @@ fn invalid_mode3_set() -> Vec<Invalid> {
     let mut p = good.clone();
     p[1] = with_stream(&good[1], exceptions, |s| {
         let mut head = vec![exc[0] + 1, 0, 0, exc[3], 0, 1];
-        put_varint(&mut head, zigzag(k0 as i64 - pk1 as i64));
+        head.extend(varint(zigzag(k0 as i64 - pk1 as i64)));
         head.push(exc[4] - 1);
         s.splice(0..5, head);
     });
@@ -546,11 +545,7 @@ fn invalid_mode3_set() -> Vec<Invalid> {
     let extras = read(extra_keys);
     assert!(extras[0] >= 1 && extras[1] < 0x80, "{extras:?}");
     let mut p = good.clone();
-    p[1] = with_stream(&good[1], extra_keys, |s| {
-        let mut delta = Vec::new();
-        put_varint(&mut delta, zigzag(1_000_000));
-        s.splice(1..2, delta);
-    });
+    p[1] = with_stream(&good[1], extra_keys, |s| drop(s.splice(1..2, varint(zigzag(1_000_000)))));
     out.push((
         "v3_extra_key_not_lattice.mrq",
         "§5.9",

@@ -459,7 +459,7 @@ pub fn mode2(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
     // Steps 2-3.
     let predicted: Vec<Option<u64>> = lf.pk.iter().map(|&x| Some(x)).collect();
     let names = names_and_splits(h, st, &predicted, Some(k))?;
-    let mut cpos = lf.pos;
+    let mut cpos = lf.pos.clone();
     let indices = resolve_corners(h, st, &predicted, &names, &mut cpos)?;
     // Step 4: lattice corners from names.
     let mut vertex_corners = Vec::new();
@@ -467,8 +467,19 @@ pub fn mode2(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
         let c = corner_of_key(name, k).expect("names of mode 2 are valid corner keys");
         vertex_corners.extend((0..m).map(|_| c));
     }
+    Ok(lattice_topology(h, lf, &indices, vertex_corners, cpos))
+}
+
+/// The decoded level of mode 2 or 3: quads in the order of §5.3, with their corners' vertices.
+fn lattice_topology(
+    h: &BlockHeader,
+    lf: LatticeFaces,
+    indices: &[u32],
+    vertex_corners: Vec<[u32; 3]>,
+    cpos: Vec<Option<u8>>,
+) -> Topology {
     let mut faces = vec![vec![0u32; 4]; h.face_count];
-    fill_faces(&mut faces, &indices);
+    fill_faces(&mut faces, indices);
     let level = Level {
         faces,
         origins: lf.origins,
@@ -476,7 +487,7 @@ pub fn mode2(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
         vertex_corners: Some(vertex_corners),
         ..Level::default()
     };
-    Ok(Topology { level, vertex_count: h.vertex_count, pos: cpos, parent_quads: lf.parent_quads })
+    Topology { level, vertex_count: h.vertex_count, pos: cpos, parent_quads: lf.parent_quads }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -518,7 +529,7 @@ pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
     let nc = h.corner_count as u64;
     // Step 1.
     let lf = lattice_faces(k, h, st, parent)?;
-    let mut cpos = lf.pos;
+    let mut cpos = lf.pos.clone();
     // Step 2: split keys.
     let mut table: BTreeMap<u64, Entry> = BTreeMap::new();
     let ns = st[SPLIT_KEYS].varint_at_most(nc, "split key count")?;
@@ -615,14 +626,5 @@ pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
         let Some(c) = c else { return invalid("extra key is no valid corner key") };
         vertex_corners.push(c);
     }
-    let mut faces = vec![vec![0u32; 4]; h.face_count];
-    fill_faces(&mut faces, &indices);
-    let level = Level {
-        faces,
-        origins: lf.origins,
-        slots: Some(lf.slots),
-        vertex_corners: Some(vertex_corners),
-        ..Level::default()
-    };
-    Ok(Topology { level, vertex_count: h.vertex_count, pos: cpos, parent_quads: lf.parent_quads })
+    Ok(lattice_topology(h, lf, &indices, vertex_corners, cpos))
 }
