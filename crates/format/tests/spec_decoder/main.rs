@@ -9,7 +9,9 @@
 //! beside it; each file of `invalid/` must be rejected with the error class its README names.
 
 mod block;
+mod compare;
 mod container;
+mod file;
 mod geometry;
 mod geometry3;
 mod primitives;
@@ -17,49 +19,11 @@ mod topology;
 
 use std::path::{Path, PathBuf};
 
-use octowrap_mesh::FaceOrigin;
 use serde_json::json;
 
-use container::{CUBE, DEFAULT_LIMITS, Metadata};
-use primitives::{Result, SpecError};
-use topology::Level;
-
-/// A file decoded by the spec decoder.
-struct File {
-    cube: Option<([f64; 3], [f64; 3])>,
-    metadata: Metadata,
-    levels: Vec<Level>,
-    /// Per level, per vertex: its position (§6.7).
-    positions: Vec<Vec<[f64; 3]>>,
-}
-
-/// §7.1: the whole file, level by level.
-fn decode(bytes: &[u8]) -> Result<File> {
-    let pre = container::read_preamble(bytes, &DEFAULT_LIMITS)?;
-    let h = &pre.header;
-    let ctx = block::FileContext::new(h);
-    let mut levels: Vec<Level> = Vec::new();
-    for (k, e) in pre.entries.iter().enumerate() {
-        let raw = block::payload(bytes, k, e)?;
-        let level = block::decode_level(k, &raw, e, ctx, levels.last())?;
-        levels.push(level);
-    }
-    // §6.7.
-    let positions = levels
-        .iter()
-        .map(|l| {
-            if ctx.exact {
-                l.exact.clone()
-            } else {
-                l.q.iter()
-                    .map(|q| [0, 1, 2].map(|a| h.origin[a] + primitives::to_f64(i128::from(q[a])) * h.step))
-                    .collect()
-            }
-        })
-        .collect();
-    let cube = (h.flags & CUBE != 0).then_some((h.cube_min, h.cube_max));
-    Ok(File { cube, metadata: pre.metadata, levels, positions })
-}
+use compare::compare_with_reference;
+use file::{File, decode};
+use primitives::SpecError;
 
 fn dir(sub: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/format").join(sub)
@@ -95,38 +59,6 @@ fn dump(f: &File) -> String {
         .collect();
     let cube = f.cube.map(|(a, b)| [a, b]);
     serde_json::to_string_pretty(&json!({ "cube": cube, "levels": levels })).expect("json") + "\n"
-}
-
-/// Compares the spec decoder's result with the reference decoder's.
-fn compare_with_reference(path: &Path, bytes: &[u8], ours: &File) {
-    let name = path.display();
-    let theirs = octowrap_format::decode(bytes, &octowrap_format::DecodeOptions::default())
-        .unwrap_or_else(|e| panic!("{name}: the reference decoder fails: {e}"));
-    let h = &theirs.hierarchy;
-    assert_eq!(ours.levels.len(), h.levels.len(), "{name}: level count");
-    assert_eq!(ours.cube, h.cube.map(|c| (c.min.to_array(), c.max.to_array())), "{name}: cube");
-    let m = &theirs.info.metadata;
-    let theirs_meta = (&m.units, &m.source, &m.generator, &m.entries);
-    let ours_meta = (&ours.metadata.units, &ours.metadata.source, &ours.metadata.generator, &ours.metadata.entries);
-    assert_eq!(ours_meta, theirs_meta, "{name}: metadata");
-    for (k, (l, r)) in ours.levels.iter().zip(&h.levels).enumerate() {
-        let bits = |p: &[[f64; 3]]| p.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>();
-        let reference: Vec<[f64; 3]> = r.mesh.vertices.positions.iter().map(octowrap_mesh::DVec3::to_array).collect();
-        assert_eq!(bits(&ours.positions[k]), bits(&reference), "{name} level {k}: positions");
-        let faces: Vec<Vec<u32>> = r.mesh.faces.iter().map(<[u32]>::to_vec).collect();
-        assert_eq!(l.faces, faces, "{name} level {k}: faces");
-        let origins: Vec<Option<(u32, u8)>> = r
-            .origins
-            .iter()
-            .map(|o| match o {
-                FaceOrigin::Subface { parent, quadrant } => Some((*parent, quadrant.0)),
-                FaceOrigin::Created => None,
-            })
-            .collect();
-        assert_eq!(l.origins, origins, "{name} level {k}: origins");
-        let lattice = r.lattice.as_ref().map(|x| (x.face_slots.clone(), x.vertex_corners.clone()));
-        assert_eq!(l.slots.clone().zip(l.vertex_corners.clone()), lattice, "{name} level {k}: lattice");
-    }
 }
 
 fn check_decodes(sub: &str) -> usize {
