@@ -1,15 +1,14 @@
 //! The level decoder: spec §4-§6 read in order. Works on plain arrays; every count is checked
 //! against the level-table entry (itself checked against [`crate::Limits`]) before allocating.
 
+use crate::block::{BlockHeader, GridInfo, LINE_PARAM_LIMIT, Mode, s};
 use crate::bytes::{Planes, Reader, unzigzag};
 use crate::container::LevelEntry;
 use crate::error::{Error, Where};
 use crate::fast;
-use crate::lattice::{self, MAX_LATTICE_DEPTH};
+use crate::lattice;
 use crate::level::{
-    BLOCK_FLAG_LATTICE, BLOCK_HEADER_SIZE, GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode,
-    NO_PARENT, NO_POS, NONE, PREDICTOR_LINES, Parent, STREAM_COUNT, STREAM_NAMES, Topo, geometry_pass, number_edges,
-    rotated, s,
+    GRID_LIMIT, GeometryScratch, NO_PARENT, NO_POS, NONE, Parent, Topo, geometry_pass, number_edges, rotated,
 };
 
 /// `rotated(r, i)` (spec §5.2) for every rotation byte `r < 8` and corner `i < 4`.
@@ -64,19 +63,6 @@ impl PlainLevel {
             rotation_hints: &self.rotation_hints,
         }
     }
-}
-
-/// How positions are stored, from the file header.
-#[derive(Clone, Copy, Debug)]
-pub struct GridInfo {
-    /// Positions stored exactly (binary64).
-    pub exact: bool,
-    /// The grid is tied to the octree cube.
-    pub tied: bool,
-    /// Grid bits.
-    pub bits: u32,
-    /// File format version (line geometry needs version 2).
-    pub version: u16,
 }
 
 /// Buffers reused from level to level (and file to file) by [`decode_level`].
@@ -138,74 +124,10 @@ pub fn decode_level(
     scratch: &mut Scratch,
 ) -> Result<PlainLevel, Error> {
     let place = Where::Payload(k);
-    let mut head = Reader::new(payload, 0, place, "level block header");
+    let header = BlockHeader::parse(k, payload, entry, grid)?;
+    let mut st = header.streams(k, payload)?;
+    let BlockHeader { mode, has_lattice, predictor, lines, line_shift, counts: [nv, nf, nc], .. } = header;
     let bad = |offset: u64, reason: String| Error::Invalid { place, offset, what: "level block header", reason };
-    let mode = match head.u8()? {
-        0 => Mode::Base,
-        1 => Mode::Generic,
-        2 => Mode::Lattice,
-        3 if grid.version >= 3 => Mode::FastLattice,
-        m => return Err(bad(0, format!("unknown mode {m}"))),
-    };
-    if (mode == Mode::Base) != (k == 0) {
-        return Err(bad(0, format!("mode {} is not allowed at level {k}", mode as u8)));
-    }
-    let flags = head.u8()?;
-    if flags & !BLOCK_FLAG_LATTICE != 0 {
-        return Err(bad(1, format!("reserved flag bits set: {flags:#x}")));
-    }
-    let has_lattice = flags & BLOCK_FLAG_LATTICE != 0;
-    if has_lattice && k > MAX_LATTICE_DEPTH {
-        return Err(bad(1, format!("lattice coordinates are not allowed below level {MAX_LATTICE_DEPTH}")));
-    }
-    if mode.is_lattice() && (!has_lattice || !(grid.exact || grid.tied)) {
-        return Err(bad(0, "lattice mode needs the lattice flag and an exact or cube-tied grid".into()));
-    }
-    let predictor_byte = head.u8()?;
-    let lines = predictor_byte & PREDICTOR_LINES != 0;
-    let predictor = predictor_byte & !PREDICTOR_LINES;
-    if predictor > u8::from(mode.is_lattice()) {
-        return Err(bad(2, format!("predictor {predictor} is not defined for mode {}", mode as u8)));
-    }
-    if lines && (mode == Mode::Base || grid.exact || grid.version < 2) {
-        return Err(bad(2, "line geometry needs a refinement level of a grid file of version 2 or later".into()));
-    }
-    let line_shift = u32::from(head.u8()?);
-    if line_shift > if lines { MAX_LINE_SHIFT } else { 0 } {
-        return Err(bad(3, format!("line_shift {line_shift} (0 without LINES, at most {MAX_LINE_SHIFT})")));
-    }
-    let (nv, nf, nc) = (head.u32()?, head.u32()?, head.u32()?);
-    if (nv, nf, nc) != (entry.vertex_count, entry.face_count, entry.corner_count) {
-        return Err(bad(4, "vertex, face or corner count differs from the level table".into()));
-    }
-    let (nv, nf, nc) = (nv as usize, nf as usize, nc as usize);
-    let mut sizes = [0usize; STREAM_COUNT];
-    let mut total = BLOCK_HEADER_SIZE;
-    for sz in &mut sizes {
-        *sz = head.u32()? as usize;
-        total = total.saturating_add(*sz);
-    }
-    if total != payload.len() {
-        return Err(bad(16, format!("streams take {total} bytes, the payload has {}", payload.len())));
-    }
-    let mut st: Vec<Reader<'_>> = Vec::with_capacity(STREAM_COUNT);
-    let mut at = BLOCK_HEADER_SIZE;
-    for (i, &sz) in sizes.iter().enumerate() {
-        st.push(Reader::new(&payload[at..at + sz], at as u64, place, STREAM_NAMES[i]));
-        at += sz;
-    }
-    let used: &[usize] = match (mode, has_lattice) {
-        (Mode::Base, false) => &[s::FACE_SIZES, s::CORNERS, s::GEOMETRY],
-        (Mode::Base, true) => &[s::FACE_SIZES, s::CORNERS, s::RAW_LATTICE, s::GEOMETRY],
-        (Mode::Generic, false) => &[0, 2, 4, 5, 6, 7, 8, 9, 11],
-        (Mode::Generic, true) => &[0, 2, 4, 5, 6, 7, 8, 9, 10, 11],
-        (Mode::Lattice | Mode::FastLattice, _) => &[0, 1, 2, 3, 6, 7, 8, 9, 11],
-    };
-    for (i, r) in st.iter().enumerate() {
-        if !used.contains(&i) && r.remaining() != 0 {
-            return Err(r.invalid(format!("stream must be empty in mode {}", mode as u8)));
-        }
-    }
 
     let mut out = PlainLevel { offsets: Vec::with_capacity(nf + 1), ..PlainLevel::default() };
     out.offsets.push(0);

@@ -2,14 +2,14 @@
 //! spec §5.7 (the order the decoder produces), picks the lattice mode when the level allows it,
 //! and writes the streams. Deterministic: no hash-map iteration reaches the output.
 
+use crate::block::{BLOCK_FLAG_LATTICE, MAX_LINE_SHIFT, Mode, PREDICTOR_LINES, STREAM_COUNT, s};
 use crate::bytes::{put_planes, put_varint, zigzag};
 use crate::decode::PlainLevel;
 use crate::error::EncodeError;
 use crate::fast;
 use crate::lattice::{self, MAX_LATTICE_DEPTH};
 use crate::level::{
-    BLOCK_FLAG_LATTICE, GeometryScratch, MAX_LINE_SHIFT, Mode, NO_PARENT, NO_POS, PREDICTOR_LINES, Parent,
-    STREAM_COUNT, Topo, best_rotation, geometry_pass, number_edges, rotated, s,
+    GeometryScratch, NO_PARENT, NO_POS, Parent, Topo, best_rotation, geometry_pass, number_edges, rotated,
 };
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.

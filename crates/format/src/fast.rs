@@ -93,7 +93,7 @@ impl FixedLine {
         let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
         for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
             let Ok(j) = i64::try_from(j) else { continue };
-            if j.abs() <= crate::level::LINE_PARAM_LIMIT && self.point(j) == q {
+            if j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q {
                 return Some(j);
             }
         }
@@ -279,7 +279,7 @@ fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i
     let u = fl.u;
     let dot = (s[0] - 4 * l[0]) * u[0] + (s[1] - 4 * l[1]) * u[1] + (s[2] - 4 * l[2]) * u[2];
     let jp = ((i128::from(dot) * i128::from(fl.recip) + (1 << 61)) >> 62) as i64;
-    (l, jp.clamp(-crate::level::LINE_PARAM_LIMIT, crate::level::LINE_PARAM_LIMIT))
+    (l, jp.clamp(-crate::block::LINE_PARAM_LIMIT, crate::block::LINE_PARAM_LIMIT))
 }
 
 /// The predicted point of a pass A vertex (spec §6.8): `clamp(line(jpred))` (the origin itself
@@ -362,7 +362,7 @@ pub fn decode_pass(
     parent_directions(t.parent_quads, pq, t.line_shift, dirs);
     let unz = |x: u32| i64::from(x >> 1) ^ -i64::from(x & 1);
     let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
-    let limit = crate::level::LINE_PARAM_LIMIT;
+    let limit = crate::block::LINE_PARAM_LIMIT;
     // Pass A, written out (no closure: its captures would live in memory).
     let mut missing = false;
     let (mut il, mut io) = (0usize, 0usize);

@@ -4,69 +4,8 @@
 //! The geometry pass ([`geometry_pass`]) is one function used by both directions, so that encoder
 //! and decoder cannot disagree on a prediction.
 
+use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
 use crate::lattice;
-
-/// Level block header size in bytes (spec §4.1).
-pub const BLOCK_HEADER_SIZE: usize = 64;
-/// Number of streams in every level block.
-pub const STREAM_COUNT: usize = 12;
-
-/// Stream names, in block order (spec §4.2).
-pub const STREAM_NAMES: [&str; STREAM_COUNT] = [
-    "child_masks",
-    "depths",
-    "rotations",
-    "created_keys",
-    "face_sizes",
-    "corners",
-    "extra_names",
-    "splits",
-    "exceptions",
-    "choices",
-    "raw_lattice",
-    "geometry",
-];
-
-/// Stream indices.
-pub mod s {
-    pub const CHILD_MASKS: usize = 0;
-    pub const DEPTHS: usize = 1;
-    pub const ROTATIONS: usize = 2;
-    pub const CREATED_KEYS: usize = 3;
-    pub const FACE_SIZES: usize = 4;
-    pub const CORNERS: usize = 5;
-    pub const EXTRA_NAMES: usize = 6;
-    pub const SPLITS: usize = 7;
-    pub const EXCEPTIONS: usize = 8;
-    pub const CHOICES: usize = 9;
-    pub const RAW_LATTICE: usize = 10;
-    pub const GEOMETRY: usize = 11;
-}
-
-/// Level coding modes (spec §4.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// Level 0: a polygon mesh coded on its own.
-    Base = 0,
-    /// A refinement named by canonical-subdivision slots.
-    Generic = 1,
-    /// A refinement named by octree lattice points.
-    Lattice = 2,
-    /// Format version 3: a lattice refinement with vertices numbered by first use and integer
-    /// geometry from the parent (spec §5.9, §6.8).
-    FastLattice = 3,
-}
-
-impl Mode {
-    /// Whether the level is a lattice refinement (mode 2 or 3): faces on slots, named by lattice
-    /// keys.
-    pub fn is_lattice(self) -> bool {
-        matches!(self, Mode::Lattice | Mode::FastLattice)
-    }
-}
-
-/// Block flag: the level carries lattice coordinates.
-pub const BLOCK_FLAG_LATTICE: u8 = 1;
 
 /// "No parent" in plain parent arrays.
 pub const NO_PARENT: u32 = u32::MAX;
@@ -288,17 +227,6 @@ pub struct Topo<'a> {
     /// the direction's largest axis.
     pub line_shift: u32,
 }
-
-/// Lattice predictor 0: the lattice point moved along the parent normal (spec §6.3).
-pub const PREDICTOR_NORMAL: u8 = 0;
-/// Lattice predictor 1: the parent surface's bilinear point (spec §6.3).
-pub const PREDICTOR_BILINEAR: u8 = 1;
-/// Bit 1 of the block's `predictor` byte: the geometry stream has the line layout (spec §6.6).
-pub const PREDICTOR_LINES: u8 = 2;
-/// The largest magnitude of a line parameter `j` (spec §6.6).
-pub const LINE_PARAM_LIMIT: i64 = 1 << 30;
-/// The largest line spacing exponent (spec §4.1, `line_shift`).
-pub const MAX_LINE_SHIFT: u32 = 16;
 
 /// A vertex's prediction line (spec §6.6): the grid points `base + round_away(j * u)` for integer
 /// `j`, where `u` is the predicted normal scaled so that its largest component is exactly ±1.

@@ -62,6 +62,7 @@
 //! * **Hostile input**: the container checks a header and table checksum before trusting any
 //!   offset, each level's XXH3 before decompressing it, and [`Limits`] before allocating.
 
+mod block;
 mod bytes;
 mod container;
 mod decode;
@@ -83,8 +84,9 @@ pub use container::Metadata;
 pub use error::{EncodeError, Error, Where};
 pub use lines::{LinePlacement, place_on_prediction_lines};
 
+use block::{BLOCK_HEADER_SIZE, BlockHeader, GridInfo};
 use container::{ENTRY_SIZE, FLAG_CUBE, FLAG_EXACT, FLAG_TIED, FileHeader, HEADER_SIZE, LevelEntry, MAGIC, Preamble};
-use decode::{GridInfo, PlainLevel};
+use decode::PlainLevel;
 use encode::InputLevel;
 use level::NO_PARENT;
 
@@ -627,7 +629,7 @@ pub fn read_info(mut r: impl Read, limits: &Limits) -> Result<FileInfo, Error> {
 /// same memory again and again.
 #[derive(Default)]
 struct DecodeBuffers {
-    unzstd: Option<zstd::bulk::Decompressor<'static>>,
+    unzstd: Option<zstd::zstd_safe::DCtx<'static>>,
     stored: Vec<u8>,
     payload: Vec<u8>,
     level: decode::Scratch,
@@ -686,10 +688,10 @@ fn decode_levels(
     // One decompression context for all levels (its buffers are reused).
     let unzstd = match &mut buffers.unzstd {
         Some(z) => z,
-        none => none.insert(zstd::bulk::Decompressor::new().map_err(|x| Error::Zstd {
+        none => none.insert(zstd::zstd_safe::DCtx::try_create().ok_or_else(|| Error::Zstd {
             level: 0,
             offset: 0,
-            reason: x.to_string(),
+            reason: "cannot create a decompression context".into(),
         })?),
     };
     for k in 0..=last {
@@ -705,23 +707,8 @@ fn decode_levels(
                 computed,
             });
         }
-        let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
-        match zstd::zstd_safe::get_frame_content_size(stored) {
-            Ok(Some(size)) if size == e.raw_size => {}
-            Ok(Some(size)) => {
-                return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size)));
-            }
-            Ok(None) => return Err(zerr("the frame does not state its content size".into())),
-            Err(_) => return Err(zerr("not a zstd frame".into())),
-        }
-        // The size is checked against the limits (level table) and stated by the frame.
         let payload = &mut buffers.payload;
-        payload.clear();
-        payload.reserve(e.raw_size as usize);
-        unzstd.decompress_to_buffer(stored.as_slice(), payload).map_err(|x| zerr(x.to_string()))?;
-        if payload.len() as u64 != e.raw_size {
-            return Err(zerr(format!("decompressed to {} bytes, the level table says {}", payload.len(), e.raw_size)));
-        }
+        decompress_level(unzstd, stored, (k, e), payload, |head| BlockHeader::parse(k, head, e, gi).map(drop))?;
         let lv = decode::decode_level(k, payload, e, parent.as_ref(), gi, &mut buffers.level)?;
         // The parent is no longer needed: its arrays move into the output.
         if let Some(p) = parent.replace(lv) {
@@ -729,7 +716,99 @@ fn decode_levels(
         }
     }
     out.levels.extend(parent.map(|p| into_level(p, origin, h.step)));
+    if last + 1 == n {
+        reject_trailing_bytes(r, &pre.levels[last as usize], last)?;
+    }
     Ok(out)
+}
+
+/// Fails when the input holds bytes after the last level (spec §3.2: nothing follows it).
+fn reject_trailing_bytes(r: &mut impl Read, e: &LevelEntry, k: u32) -> Result<(), Error> {
+    let mut byte = [0u8; 1];
+    loop {
+        match r.read(&mut byte) {
+            Ok(0) => return Ok(()),
+            Ok(_) => {
+                return Err(Error::Invalid {
+                    place: Where::Level(k),
+                    offset: e.offset + e.stored_size,
+                    what: "end of file",
+                    reason: "bytes follow the last level".into(),
+                });
+            }
+            Err(x) if x.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(x) => return Err(x.into()),
+        }
+    }
+}
+
+/// Decompresses level `k`'s stored bytes (one zstd frame, spec §3.5) into `payload`, streaming:
+/// the first [`BLOCK_HEADER_SIZE`] bytes go to `check_header` before anything more is
+/// decompressed; then the output grows with what the frame produces, never beyond `raw_size` (a
+/// frame that expands further fails as soon as it passes that size); nothing may follow the frame.
+fn decompress_level(
+    unzstd: &mut zstd::zstd_safe::DCtx<'static>,
+    stored: &[u8],
+    (k, e): (u32, &LevelEntry),
+    payload: &mut Vec<u8>,
+    check_header: impl FnOnce(&[u8]) -> Result<(), Error>,
+) -> Result<(), Error> {
+    use zstd::zstd_safe::{InBuffer, OutBuffer, ResetDirective, get_error_name};
+    let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
+    match zstd::zstd_safe::get_frame_content_size(stored) {
+        Ok(Some(size)) if size == e.raw_size => {}
+        Ok(Some(size)) => {
+            return Err(zerr(format!("frame holds {size} bytes, the level table says {}", e.raw_size)));
+        }
+        Ok(None) => return Err(zerr("the frame does not state its content size".into())),
+        Err(_) => return Err(zerr("not a zstd frame".into())),
+    }
+    let raw = usize::try_from(e.raw_size).map_err(|_| zerr("raw_size does not fit in memory".into()))?;
+    unzstd.reset(ResetDirective::SessionOnly).map_err(|c| zerr(get_error_name(c).into()))?;
+    let mut input = InBuffer::around(stored);
+    let mut hint = 1;
+    // The block header first, into a buffer of its own size.
+    let mut head = [0u8; BLOCK_HEADER_SIZE];
+    let head_len = raw.min(BLOCK_HEADER_SIZE);
+    let mut output = OutBuffer::around(&mut head[..head_len]);
+    while output.pos() < head_len && hint != 0 {
+        let before = (input.pos(), output.pos());
+        hint = unzstd.decompress_stream(&mut output, &mut input).map_err(|c| zerr(get_error_name(c).into()))?;
+        if (input.pos(), output.pos()) == before {
+            return Err(zerr("the frame ends early".into()));
+        }
+    }
+    let got = output.pos();
+    payload.clear();
+    payload.extend_from_slice(&head[..got]);
+    if got == BLOCK_HEADER_SIZE {
+        check_header(&head)?;
+    }
+    // The rest: what the stored bytes can plausibly expand to is reserved at once, more as it comes.
+    payload.reserve(raw.min(stored.len().saturating_mul(64).max(1 << 16)));
+    while hint != 0 {
+        if payload.len() == payload.capacity() {
+            // One byte beyond `raw`, so that a frame expanding further shows itself.
+            payload.reserve((raw + 1 - payload.len().min(raw)).min(payload.len().max(1 << 16)));
+        }
+        let before = (input.pos(), payload.len());
+        let len = payload.len();
+        let mut output = OutBuffer::around_pos(payload, len);
+        hint = unzstd.decompress_stream(&mut output, &mut input).map_err(|c| zerr(get_error_name(c).into()))?;
+        if payload.len() > raw {
+            return Err(zerr(format!("the frame expands beyond the {raw} bytes the level table declares")));
+        }
+        if hint != 0 && (input.pos(), payload.len()) == before {
+            return Err(zerr("the frame ends early".into()));
+        }
+    }
+    if input.pos() != stored.len() {
+        return Err(zerr(format!("{} bytes follow the frame", stored.len() - input.pos())));
+    }
+    if payload.len() != raw {
+        return Err(zerr(format!("decompressed to {} bytes, the level table says {raw}", payload.len())));
+    }
+    Ok(())
 }
 
 /// Decodes a whole file held in memory, with [`Limits::strict`]-free default limits.
@@ -886,5 +965,33 @@ pub mod tamper {
         let sum = xxhash_rust::xxh3::xxh3_64(&bytes[..end]);
         bytes[end..end + 8].copy_from_slice(&sum.to_le_bytes());
         true
+    }
+
+    /// `bytes` with level `k`'s stored bytes replaced by `stored` and its `raw_size` set to
+    /// `raw_size`: the level table's sizes, offsets and checksums and the preamble checksum are
+    /// recomputed, so that the file reaches the level's decompression. `None` when `bytes` is not
+    /// a readable file or has no level `k`.
+    pub fn replace_stored(bytes: &[u8], k: usize, stored: &[u8], raw_size: u64) -> Option<Vec<u8>> {
+        let mut r = bytes;
+        let mut pre = super::read_preamble(&mut r, &super::Limits::default()).ok()?;
+        let mut levels: Vec<Vec<u8>> = pre
+            .levels
+            .iter()
+            .map(|e| bytes.get(e.offset as usize..(e.offset + e.stored_size) as usize).map(<[u8]>::to_vec))
+            .collect::<Option<_>>()?;
+        *levels.get_mut(k)? = stored.to_vec();
+        pre.levels[k].raw_size = raw_size;
+        let mut offset = pre.size();
+        for (e, s) in pre.levels.iter_mut().zip(&levels) {
+            e.offset = offset;
+            e.stored_size = s.len() as u64;
+            e.checksum = xxhash_rust::xxh3::xxh3_64(s);
+            offset += s.len() as u64;
+        }
+        let mut out = pre.to_bytes();
+        for s in levels {
+            out.extend(s);
+        }
+        Some(out)
     }
 }

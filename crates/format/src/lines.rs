@@ -10,14 +10,12 @@
 
 use octowrap_mesh::{Aabb, DVec3, FaceList, Hierarchy, Mesh};
 
+use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
 use crate::decode::PlainLevel;
 use crate::encode::{self, Encoded};
 use crate::error::EncodeError;
 use crate::fast::{self, FixedLine};
-use crate::level::{
-    GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL,
-    Topo, geometry_pass,
-};
+use crate::level::{GRID_LIMIT, GeometryScratch, Line, Topo, geometry_pass};
 use crate::{EncodeOptions, Grid, choose_grid, input_level};
 
 /// What [`place_on_prediction_lines`] did.
