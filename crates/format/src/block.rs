@@ -9,7 +9,7 @@
 
 use crate::bytes::Reader;
 use crate::container::LevelEntry;
-use crate::error::{Error, Where};
+use crate::error::{DecodeError, Where};
 use crate::lattice::MAX_LATTICE_DEPTH;
 
 /// Level block header size in bytes (spec §4.1).
@@ -144,10 +144,11 @@ impl BlockHeader {
     /// Reads and checks level `k`'s block header from the first [`BLOCK_HEADER_SIZE`] bytes of its
     /// payload (`head` may be longer): every rule of §4.1 except the ones that need the geometry
     /// stream's bytes (see [`Self::streams`]).
-    pub fn parse(k: u32, head: &[u8], entry: &LevelEntry, grid: GridInfo) -> Result<Self, Error> {
+    pub fn parse(k: u32, head: &[u8], entry: &LevelEntry, grid: GridInfo) -> Result<Self, DecodeError> {
         let place = Where::Payload(k);
         let mut r = Reader::new(head, 0, place, "level block header");
-        let bad = |offset: u64, reason: String| Error::Invalid { place, offset, what: "level block header", reason };
+        let bad =
+            |offset: u64, reason: String| DecodeError::Invalid { place, offset, what: "level block header", reason };
         let mode = Mode::from_byte(r.u8()?, grid.version).ok_or_else(|| bad(0, format!("unknown mode {}", head[0])))?;
         if (mode == Mode::Base) != (k == 0) {
             return Err(bad(0, format!("mode {} is not allowed at level {k}", mode as u8)));
@@ -233,7 +234,7 @@ impl BlockHeader {
     /// Cuts level `k`'s whole payload (header included) into its twelve streams, checks that the
     /// streams the mode does not use are empty (§4.2), and that the geometry stream can hold
     /// `vertex_count` vertices ([`geometry_vertex_bound`]).
-    pub fn streams<'a>(&self, k: u32, payload: &'a [u8]) -> Result<[Reader<'a>; STREAM_COUNT], Error> {
+    pub fn streams<'a>(&self, k: u32, payload: &'a [u8]) -> Result<[Reader<'a>; STREAM_COUNT], DecodeError> {
         let place = Where::Payload(k);
         let mut at = BLOCK_HEADER_SIZE;
         let streams: [Reader<'a>; STREAM_COUNT] = std::array::from_fn(|i| {
@@ -243,7 +244,7 @@ impl BlockHeader {
             r
         });
         if at != payload.len() || streams.iter().zip(&self.sizes).any(|(r, &n)| r.remaining() != n) {
-            return Err(Error::Invalid {
+            return Err(DecodeError::Invalid {
                 place,
                 offset: 16,
                 what: "level block header",
@@ -259,7 +260,7 @@ impl BlockHeader {
         let nv = self.counts[0] as u64;
         if let Some(max) = geometry_vertex_bound(streams[s::GEOMETRY].rest(), self.lines) {
             if nv > max {
-                return Err(Error::Invalid {
+                return Err(DecodeError::Invalid {
                     place,
                     offset: 4,
                     what: "level block header",

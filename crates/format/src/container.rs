@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::xxh3_64;
 
-use crate::error::{Error, Where};
+use crate::error::{DecodeError, Where};
 
 /// The eight bytes every MRQ file starts with.
 pub const MAGIC: [u8; 8] = [0x89, b'M', b'R', b'Q', 0x0D, 0x0A, 0x1A, 0x0A];
@@ -98,16 +98,16 @@ pub fn to_bytes<T: Serialize>(v: &T) -> Vec<u8> {
     bincode::serde::encode_to_vec(v, config()).expect("plain structs always serialize")
 }
 
-fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, Error> {
+fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, DecodeError> {
     match bincode::serde::decode_from_slice::<T, _>(b, config()) {
         Ok((v, used)) if used == b.len() => Ok(v),
-        Ok((_, used)) => Err(Error::Invalid {
+        Ok((_, used)) => Err(DecodeError::Invalid {
             place: Where::Preamble,
             offset: offset + used as u64,
             what,
             reason: format!("{} bytes left over", b.len() - used),
         }),
-        Err(e) => Err(Error::Invalid { place: Where::Preamble, offset, what, reason: e.to_string() }),
+        Err(e) => Err(DecodeError::Invalid { place: Where::Preamble, offset, what, reason: e.to_string() }),
     }
 }
 
@@ -142,16 +142,20 @@ impl Preamble {
 }
 
 /// Parses and checks the fixed header (the first [`HEADER_SIZE`] bytes).
-pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<FileHeader, Error> {
+pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<FileHeader, DecodeError> {
     if b[..8] != MAGIC {
-        return Err(Error::BadMagic { found: b[..8].to_vec() });
+        return Err(DecodeError::BadMagic { found: b[..8].to_vec() });
     }
     let h: FileHeader = from_bytes(b, 0, "file header")?;
-    if !(1..=crate::LATEST_FORMAT_VERSION).contains(&h.version) {
-        return Err(Error::UnsupportedVersion { found: h.version });
+    if !(1..=crate::FORMAT_VERSION).contains(&h.version) {
+        return Err(DecodeError::UnsupportedVersion { found: h.version });
     }
-    let bad =
-        |offset: u64, reason: String| Error::Invalid { place: Where::Preamble, offset, what: "file header", reason };
+    let bad = |offset: u64, reason: String| DecodeError::Invalid {
+        place: Where::Preamble,
+        offset,
+        what: "file header",
+        reason,
+    };
     if usize::from(h.header_size) != HEADER_SIZE {
         return Err(bad(10, format!("header_size is {}, must be {HEADER_SIZE}", h.header_size)));
     }
@@ -162,7 +166,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
         return Err(bad(16, "level_count is 0".into()));
     }
     if h.level_count > limits.max_levels {
-        return Err(Error::LimitExceeded {
+        return Err(DecodeError::LimitExceeded {
             place: Where::Preamble,
             offset: 16,
             what: "level_count",
@@ -196,7 +200,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
         return Err(bad(56, "cube fields must be zero when no cube is recorded".into()));
     }
     if h.metadata_size > limits.max_metadata_bytes {
-        return Err(Error::LimitExceeded {
+        return Err(DecodeError::LimitExceeded {
             place: Where::Preamble,
             offset: 104,
             what: "metadata_size",
@@ -214,7 +218,7 @@ pub fn parse_rest(
     header_bytes: &[u8],
     rest: &[u8],
     limits: &crate::Limits,
-) -> Result<Preamble, Error> {
+) -> Result<Preamble, DecodeError> {
     let n = header.level_count as usize;
     let table_end = n * ENTRY_SIZE;
     let meta_end = table_end + header.metadata_size as usize;
@@ -227,7 +231,7 @@ pub fn parse_rest(
         h.digest()
     };
     if stored != computed {
-        return Err(Error::ChecksumMismatch { place: Where::Preamble, offset: 0, stored, computed });
+        return Err(DecodeError::ChecksumMismatch { place: Where::Preamble, offset: 0, stored, computed });
     }
     let preamble_size = (HEADER_SIZE + meta_end + 8) as u64;
     let mut levels = Vec::with_capacity(n);
@@ -235,7 +239,7 @@ pub fn parse_rest(
     for k in 0..n {
         let at = HEADER_SIZE + k * ENTRY_SIZE;
         let e: LevelEntry = from_bytes(&rest[k * ENTRY_SIZE..(k + 1) * ENTRY_SIZE], at as u64, "level table entry")?;
-        let bad = |off: usize, reason: String| Error::Invalid {
+        let bad = |off: usize, reason: String| DecodeError::Invalid {
             place: Where::Preamble,
             offset: (at + off) as u64,
             what: "level table entry",
@@ -249,7 +253,13 @@ pub fn parse_rest(
         }
         let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
             if value > limit {
-                Err(Error::LimitExceeded { place: Where::Preamble, offset: (at + off) as u64, what, value, limit })
+                Err(DecodeError::LimitExceeded {
+                    place: Where::Preamble,
+                    offset: (at + off) as u64,
+                    what,
+                    value,
+                    limit,
+                })
             } else {
                 Ok(())
             }

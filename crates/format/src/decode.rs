@@ -4,7 +4,7 @@
 use crate::block::{BlockHeader, GridInfo, LINE_PARAM_LIMIT, Mode, s};
 use crate::bytes::{Planes, Reader, unzigzag};
 use crate::container::LevelEntry;
-use crate::error::{Error, Where};
+use crate::error::{DecodeError, Where};
 use crate::fast;
 use crate::lattice;
 use crate::level::{
@@ -122,12 +122,12 @@ pub fn decode_level(
     parent: Option<&PlainLevel>,
     grid: GridInfo,
     scratch: &mut Scratch,
-) -> Result<PlainLevel, Error> {
+) -> Result<PlainLevel, DecodeError> {
     let place = Where::Payload(k);
     let header = BlockHeader::parse(k, payload, entry, grid)?;
     let mut st = header.streams(k, payload)?;
     let BlockHeader { mode, has_lattice, predictor, lines, line_shift, counts: [nv, nf, nc], .. } = header;
-    let bad = |offset: u64, reason: String| Error::Invalid { place, offset, what: "level block header", reason };
+    let bad = |offset: u64, reason: String| DecodeError::Invalid { place, offset, what: "level block header", reason };
 
     let mut out = PlainLevel { offsets: Vec::with_capacity(nf + 1), ..PlainLevel::default() };
     out.offsets.push(0);
@@ -165,7 +165,7 @@ pub fn decode_level(
         pred.resize(nc, u64::MAX);
         pos.clear();
         pos.resize(nc, NO_POS);
-        let rot_of = |st: &mut [Reader<'_>]| -> Result<u8, Error> {
+        let rot_of = |st: &mut [Reader<'_>]| -> Result<u8, DecodeError> {
             let r = st[s::ROTATIONS].u8()?;
             if r & !7 != 0 {
                 return Err(st[s::ROTATIONS].invalid(format!("rotation byte {r:#x} has reserved bits set")));
@@ -347,6 +347,9 @@ pub fn decode_level(
         sort_names(pred, name_bounds, names, name_of, bits, rank);
         let r = &mut st[s::EXTRA_NAMES];
         let ne = r.varint_max(nv as u64, "extra name count")? as usize;
+        if ne > r.remaining() {
+            return Err(r.invalid(format!("{ne} extra names do not fit in the stream")));
+        }
         let mut extras = Vec::with_capacity(ne);
         let mut name = 0u64;
         for i in 0..ne {
@@ -398,7 +401,7 @@ pub fn decode_level(
             let at = r.offset();
             let c = r.varint_max(nv as u64, "split vertex count")?;
             if c == 1 {
-                return Err(Error::Invalid {
+                return Err(DecodeError::Invalid {
                     place,
                     offset: at,
                     what: "splits",
@@ -562,7 +565,7 @@ fn finish(
     parent_quads: &[([u32; 4], u8)],
     nv: usize,
     geometry: &mut GeometryScratch,
-) -> Result<PlainLevel, Error> {
+) -> Result<PlainLevel, DecodeError> {
     let nf = out.parents.len();
     if mode != Mode::Lattice && has_lattice {
         let r = &mut st[s::RAW_LATTICE];
@@ -614,8 +617,12 @@ fn finish(
             line_shift,
         };
         let geo_off = g.offset();
-        let invalid =
-            |reason: String| Error::Invalid { place: Where::Payload(k), offset: geo_off, what: "geometry", reason };
+        let invalid = |reason: String| DecodeError::Invalid {
+            place: Where::Payload(k),
+            offset: geo_off,
+            what: "geometry",
+            reason,
+        };
         let (mut next_line, mut next_other) = (0usize, 0usize);
         geometry_pass(
             &topo,
@@ -671,7 +678,7 @@ fn finish_fast(
     parent: &PlainLevel,
     parent_quads: &[([u32; 4], u8)],
     scratch: &mut FastGeometryScratch,
-) -> Result<PlainLevel, Error> {
+) -> Result<PlainLevel, DecodeError> {
     let nv = out.corners.as_ref().map_or(0, Vec::len);
     let g = &mut st[s::GEOMETRY];
     if grid.exact {
@@ -851,7 +858,7 @@ fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u3
 
 /// The exact geometry of a level (spec §6.1): three planes of `f64` bit patterns, every
 /// coordinate finite.
-fn exact_positions(g: &mut Reader<'_>, nv: usize) -> Result<Vec<[f64; 3]>, Error> {
+fn exact_positions(g: &mut Reader<'_>, nv: usize) -> Result<Vec<[f64; 3]>, DecodeError> {
     let planes = [g.planes(nv, 8)?, g.planes(nv, 8)?, g.planes(nv, 8)?];
     let exact: Vec<[f64; 3]> = (0..nv).map(|v| planes.each_ref().map(|p| f64::from_bits(p[v]))).collect();
     if let Some(v) = exact.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
@@ -872,7 +879,7 @@ struct GridStreams<'a> {
 
 /// Reads the layout of a grid level's geometry stream: with lines, the bitmap of line vertices
 /// (unused bits zero) and their parameters, then the residual planes of the others.
-fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<GridStreams<'a>, Error> {
+fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<GridStreams<'a>, DecodeError> {
     let mut flags: &[u8] = &[];
     let mut line_count = 0usize;
     if lines {

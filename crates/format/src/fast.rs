@@ -23,7 +23,7 @@
 
 use crate::bytes::Reader;
 use crate::decode::ROTATIONS;
-use crate::error::Error;
+use crate::error::DecodeError;
 use crate::lattice::{self, CornerKeys};
 use crate::level::{GRID_LIMIT, NO_PARENT, NO_POS, NONE};
 
@@ -544,7 +544,7 @@ pub fn resolve(
     (parents, quadrants, parent_quads): LevelFaces<'_>,
     ctx: &mut Contexts,
     rotation_hints: &mut [u8],
-) -> Result<Vec<[u32; 3]>, Error> {
+) -> Result<Vec<[u32; 3]>, DecodeError> {
     let nc = pred.len();
     // The contexts of [`contexts`], found on the way (the decoder needs no second pass).
     ctx.first.clear();

@@ -22,7 +22,7 @@
 //! assert_eq!(file.hierarchy.levels[0].mesh.faces.face(0), &[0, 1, 2, 3]);
 //! ```
 //!
-//! Decoding never panics on hostile input: every failure is an [`Error`] naming the region and
+//! Decoding never panics on hostile input: every failure is a [`DecodeError`] naming the region and
 //! byte offset, and every allocation is checked against [`Limits`] first. Encoding is
 //! deterministic: the same hierarchy and options give the same bytes.
 //!
@@ -72,6 +72,7 @@ mod fast;
 mod lattice;
 mod level;
 mod lines;
+#[cfg(feature = "testing")]
 pub mod synthetic;
 
 use std::io::{Read, Write};
@@ -81,7 +82,7 @@ use octowrap_mesh::{Aabb, DVec3, FaceList, FaceOrigin, Hierarchy, Level, LevelLa
 use xxhash_rust::xxh3::xxh3_64;
 
 pub use container::Metadata;
-pub use error::{EncodeError, Error, Where};
+pub use error::{DecodeError, EncodeError, Where};
 pub use lines::{LinePlacement, place_on_prediction_lines};
 
 use block::{BLOCK_HEADER_SIZE, BlockHeader, GridInfo};
@@ -90,11 +91,9 @@ use decode::PlainLevel;
 use encode::InputLevel;
 use level::NO_PARENT;
 
-/// The format version this crate writes by default (spec §3.1); [`EncodeOptions::version`] selects
-/// another.
+/// The newest format version (spec §3.1): the version this crate writes by default
+/// ([`EncodeOptions::version`] selects 2 instead). The decoder reads every version from 1 to this.
 pub const FORMAT_VERSION: u16 = 3;
-/// The newest format version this crate reads and writes; it reads every version from 1 to this.
-pub const LATEST_FORMAT_VERSION: u16 = 3;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 
@@ -392,9 +391,9 @@ fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> {
 
 /// Fails unless `opts.version` is a version this crate writes (2 or 3).
 fn check_version(opts: &EncodeOptions) -> Result<(), EncodeError> {
-    if !(2..=LATEST_FORMAT_VERSION).contains(&opts.version) {
+    if !(2..=FORMAT_VERSION).contains(&opts.version) {
         return Err(EncodeError::Options(format!(
-            "format version {} cannot be written (2..={LATEST_FORMAT_VERSION})",
+            "format version {} cannot be written (2..={FORMAT_VERSION})",
             opts.version
         )));
     }
@@ -568,27 +567,27 @@ fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<Lev
 }
 
 /// Reads `n` bytes without trusting `n` for the allocation: the buffer grows with the input.
-fn read_vec(r: &mut impl Read, n: u64, offset: u64, what: &str) -> Result<Vec<u8>, Error> {
+fn read_vec(r: &mut impl Read, n: u64, offset: u64, what: &str) -> Result<Vec<u8>, DecodeError> {
     let mut v = Vec::with_capacity(n.min(1 << 20) as usize);
     r.take(n).read_to_end(&mut v)?;
     if (v.len() as u64) < n {
-        return Err(Error::Truncated { offset, what: what.to_owned(), needed: n, got: v.len() as u64 });
+        return Err(DecodeError::Truncated { offset, what: what.to_owned(), needed: n, got: v.len() as u64 });
     }
     Ok(v)
 }
 
 /// [`read_vec`] into a reused buffer.
-fn read_into(r: &mut impl Read, buf: &mut Vec<u8>, n: u64, offset: u64, what: &str) -> Result<(), Error> {
+fn read_into(r: &mut impl Read, buf: &mut Vec<u8>, n: u64, offset: u64, what: &str) -> Result<(), DecodeError> {
     buf.clear();
     buf.reserve(n.min(1 << 20) as usize);
     r.take(n).read_to_end(buf)?;
     if (buf.len() as u64) < n {
-        return Err(Error::Truncated { offset, what: what.to_owned(), needed: n, got: buf.len() as u64 });
+        return Err(DecodeError::Truncated { offset, what: what.to_owned(), needed: n, got: buf.len() as u64 });
     }
     Ok(())
 }
 
-fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> {
+fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, DecodeError> {
     let mut head = [0u8; HEADER_SIZE];
     // A short file that does not even start with the magic is not an MRQ file.
     let mut got = 0;
@@ -602,10 +601,10 @@ fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> 
     }
     let m = got.min(8);
     if head[..m] != MAGIC[..m] {
-        return Err(Error::BadMagic { found: head[..m].to_vec() });
+        return Err(DecodeError::BadMagic { found: head[..m].to_vec() });
     }
     if got < HEADER_SIZE {
-        return Err(Error::Truncated {
+        return Err(DecodeError::Truncated {
             offset: 0,
             what: "file header".into(),
             needed: HEADER_SIZE as u64,
@@ -619,7 +618,7 @@ fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Error> 
 }
 
 /// Reads only the preamble: levels, sizes, counts, quantization, metadata.
-pub fn read_info(mut r: impl Read, limits: &Limits) -> Result<FileInfo, Error> {
+pub fn read_info(mut r: impl Read, limits: &Limits) -> Result<FileInfo, DecodeError> {
     Ok(FileInfo::from_preamble(&read_preamble(&mut r, limits)?))
 }
 
@@ -647,7 +646,7 @@ thread_local! {
 ///
 /// One call decodes on the calling thread. The thread keeps the decoder's working buffers (up to
 /// 64 MiB) for its next call; the returned hierarchy is always freshly allocated.
-pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, Error> {
+pub fn decode(mut r: impl Read, opts: &DecodeOptions) -> Result<MrqFile, DecodeError> {
     let pre = read_preamble(&mut r, &opts.limits)?;
     let mut buffers = BUFFERS.with(|b| b.borrow_mut().take()).unwrap_or_default();
     let out = decode_levels(&mut r, &pre, opts, &mut buffers);
@@ -664,10 +663,10 @@ fn decode_levels(
     pre: &Preamble,
     opts: &DecodeOptions,
     buffers: &mut DecodeBuffers,
-) -> Result<Hierarchy, Error> {
+) -> Result<Hierarchy, DecodeError> {
     let n = pre.levels.len() as u32;
     let last = match opts.max_level {
-        Some(k) if k >= n => return Err(Error::NoSuchLevel { requested: k, available: n }),
+        Some(k) if k >= n => return Err(DecodeError::NoSuchLevel { requested: k, available: n }),
         Some(k) => k,
         None => n - 1,
     };
@@ -688,7 +687,7 @@ fn decode_levels(
     // One decompression context for all levels (its buffers are reused).
     let unzstd = match &mut buffers.unzstd {
         Some(z) => z,
-        none => none.insert(zstd::zstd_safe::DCtx::try_create().ok_or_else(|| Error::Zstd {
+        none => none.insert(zstd::zstd_safe::DCtx::try_create().ok_or_else(|| DecodeError::Zstd {
             level: 0,
             offset: 0,
             reason: "cannot create a decompression context".into(),
@@ -700,7 +699,7 @@ fn decode_levels(
         read_into(r, stored, e.stored_size, e.offset, &format!("level {k}"))?;
         let computed = xxh3_64(stored);
         if computed != e.checksum {
-            return Err(Error::ChecksumMismatch {
+            return Err(DecodeError::ChecksumMismatch {
                 place: Where::Level(k),
                 offset: e.offset,
                 stored: e.checksum,
@@ -723,13 +722,13 @@ fn decode_levels(
 }
 
 /// Fails when the input holds bytes after the last level (spec §3.2: nothing follows it).
-fn reject_trailing_bytes(r: &mut impl Read, e: &LevelEntry, k: u32) -> Result<(), Error> {
+fn reject_trailing_bytes(r: &mut impl Read, e: &LevelEntry, k: u32) -> Result<(), DecodeError> {
     let mut byte = [0u8; 1];
     loop {
         match r.read(&mut byte) {
             Ok(0) => return Ok(()),
             Ok(_) => {
-                return Err(Error::Invalid {
+                return Err(DecodeError::Invalid {
                     place: Where::Level(k),
                     offset: e.offset + e.stored_size,
                     what: "end of file",
@@ -751,10 +750,10 @@ fn decompress_level(
     stored: &[u8],
     (k, e): (u32, &LevelEntry),
     payload: &mut Vec<u8>,
-    check_header: impl FnOnce(&[u8]) -> Result<(), Error>,
-) -> Result<(), Error> {
+    check_header: impl FnOnce(&[u8]) -> Result<(), DecodeError>,
+) -> Result<(), DecodeError> {
     use zstd::zstd_safe::{InBuffer, OutBuffer, ResetDirective, get_error_name};
-    let zerr = |reason: String| Error::Zstd { level: k, offset: e.offset, reason };
+    let zerr = |reason: String| DecodeError::Zstd { level: k, offset: e.offset, reason };
     match zstd::zstd_safe::get_frame_content_size(stored) {
         Ok(Some(size)) if size == e.raw_size => {}
         Ok(Some(size)) => {
@@ -812,7 +811,7 @@ fn decompress_level(
 }
 
 /// Decodes a whole file held in memory, with [`Limits::strict`]-free default limits.
-pub fn decode_bytes(bytes: &[u8], opts: &DecodeOptions) -> Result<MrqFile, Error> {
+pub fn decode_bytes(bytes: &[u8], opts: &DecodeOptions) -> Result<MrqFile, DecodeError> {
     decode(bytes, opts)
 }
 
@@ -885,7 +884,7 @@ pub fn write_path(path: &Path, h: &Hierarchy, opts: &EncodeOptions) -> Result<()
 }
 
 /// Reads an MRQ file from `path` (buffered, streaming: levels beyond `opts.max_level` are not read).
-pub fn read_path(path: &Path, opts: &DecodeOptions) -> Result<MrqFile, Error> {
+pub fn read_path(path: &Path, opts: &DecodeOptions) -> Result<MrqFile, DecodeError> {
     let f = std::fs::File::open(path)?;
     decode(std::io::BufReader::with_capacity(1 << 20, f), opts)
 }
@@ -898,7 +897,7 @@ pub fn is_mrq(bytes: &[u8]) -> bool {
 /// Helpers for fuzzing and conformance tests: rewrite a level's decompressed payload and reseal
 /// the file (recompress, fix sizes, offsets and checksums), so that mutations reach the level
 /// decoder instead of stopping at a checksum.
-#[doc(hidden)]
+#[cfg(feature = "testing")]
 pub mod fuzzing {
     use super::{ENTRY_SIZE, HEADER_SIZE, Limits, Preamble, container, read_preamble};
 
@@ -946,7 +945,7 @@ pub mod fuzzing {
     }
 }
 
-#[doc(hidden)]
+#[cfg(feature = "testing")]
 pub mod tamper {
     //! Byte surgery for building invalid conformance files.
 

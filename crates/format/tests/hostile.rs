@@ -2,7 +2,7 @@
 //! checksum (or decodes identically), and random garbage never panics.
 
 use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, without_lattice};
-use octowrap_format::{DecodeOptions, EncodeOptions, Error, Limits, Quantization, decode, encode};
+use octowrap_format::{DecodeError, DecodeOptions, EncodeOptions, Limits, Quantization, decode, encode};
 use octowrap_mesh::Hierarchy;
 
 fn strict() -> DecodeOptions {
@@ -52,8 +52,8 @@ fn every_prefix_fails_cleanly() {
     for bytes in samples() {
         for n in 0..bytes.len() {
             match decode(&bytes[..n], &strict()) {
-                Err(Error::Truncated { .. }) => {}
-                Err(e) if n < 8 => assert!(matches!(e, Error::BadMagic { .. }) || n == 0, "{n}: {e}"),
+                Err(DecodeError::Truncated { .. }) => {}
+                Err(e) if n < 8 => assert!(matches!(e, DecodeError::BadMagic { .. }) || n == 0, "{n}: {e}"),
                 other => panic!("prefix of {n} bytes: expected Truncated, got {other:?}"),
             }
         }
@@ -71,12 +71,12 @@ fn every_bit_flip_is_caught_or_harmless() {
                 match decode(&flipped[..], &strict()) {
                     Ok(f) => assert_eq!(f.hierarchy, good.hierarchy, "byte {i} bit {bit}: decoded differently"),
                     Err(
-                        Error::ChecksumMismatch { .. }
-                        | Error::BadMagic { .. }
-                        | Error::UnsupportedVersion { .. }
-                        | Error::Invalid { .. }
-                        | Error::LimitExceeded { .. }
-                        | Error::Truncated { .. },
+                        DecodeError::ChecksumMismatch { .. }
+                        | DecodeError::BadMagic { .. }
+                        | DecodeError::UnsupportedVersion { .. }
+                        | DecodeError::Invalid { .. }
+                        | DecodeError::LimitExceeded { .. }
+                        | DecodeError::Truncated { .. },
                     ) => {}
                     Err(e) => panic!("byte {i} bit {bit}: unexpected {e}"),
                 }
@@ -193,7 +193,7 @@ fn counts_beyond_what_the_streams_hold_fail_at_the_count() {
                 let file = reseal(&bytes, &p, Some(&counts)).unwrap();
                 let start = std::time::Instant::now();
                 match decode(&file[..], &DecodeOptions::default()) {
-                    Err(Error::Invalid { place: Where::Payload(kk), offset, .. }) => {
+                    Err(DecodeError::Invalid { place: Where::Payload(kk), offset, .. }) => {
                         assert_eq!((kk, offset), (k as u32, at as u64), "level {k} count {i}");
                     }
                     other => panic!("level {k} count {i}: expected Invalid at payload byte {at}, got {other:?}"),
@@ -228,7 +228,7 @@ fn a_frame_that_expands_hugely_fails_at_its_block_header() {
     let file = replace_stored(&base, 0, &frame, raw).unwrap();
     let start = std::time::Instant::now();
     match decode(&file[..], &DecodeOptions::default()) {
-        Err(Error::Invalid { place: Where::Payload(0), offset: 16, .. }) => {}
+        Err(DecodeError::Invalid { place: Where::Payload(0), offset: 16, .. }) => {}
         other => panic!("expected Invalid at the block header's stream sizes, got {other:?}"),
     }
     assert!(start.elapsed().as_secs() < 2, "took {:?}", start.elapsed());
@@ -242,7 +242,10 @@ fn bytes_after_a_frame_or_after_the_last_level_are_rejected() {
         let mut longer = bytes.clone();
         longer.push(0);
         assert!(
-            matches!(decode(&longer[..], &DecodeOptions::default()), Err(Error::Invalid { what: "end of file", .. })),
+            matches!(
+                decode(&longer[..], &DecodeOptions::default()),
+                Err(DecodeError::Invalid { what: "end of file", .. })
+            ),
             "a byte after the last level"
         );
         // A skippable zstd frame after level 0's frame, inside its stored bytes.
@@ -254,7 +257,7 @@ fn bytes_after_a_frame_or_after_the_last_level_are_rejected() {
         let file = replace_stored(&bytes, 0, &stored, l0.raw_size).unwrap();
         assert_eq!(payloads(&bytes).unwrap().len(), info.levels.len());
         assert!(
-            matches!(decode(&file[..], &DecodeOptions::default()), Err(Error::Zstd { level: 0, .. })),
+            matches!(decode(&file[..], &DecodeOptions::default()), Err(DecodeError::Zstd { level: 0, .. })),
             "a skippable frame after level 0's frame"
         );
     }
@@ -273,7 +276,7 @@ fn vertices_that_cost_no_bytes_are_bounded_by_the_limits() {
     let base = encode(&Hierarchy::single(polygon_mesh(3, 1, 1)), &EncodeOptions::default()).unwrap();
     let file = reseal(&base, &[payload], Some(&[(nv, 0, 0)])).unwrap();
     match decode(&file[..], &strict()) {
-        Err(Error::LimitExceeded { what: "vertex_count", value, .. }) => assert_eq!(value, u64::from(nv)),
+        Err(DecodeError::LimitExceeded { what: "vertex_count", value, .. }) => assert_eq!(value, u64::from(nv)),
         other => panic!("expected LimitExceeded, got {other:?}"),
     }
     let f = decode(&file[..], &DecodeOptions::default()).unwrap();
