@@ -1,47 +1,11 @@
-//! Octree lattice geometry of spec §5.2: slot keys, corner keys, the canonical corner order of a
-//! slot, and the child slot under a parent quadrant.
+//! Octree lattice geometry of spec §5.3 (Lattice refinement): slot keys, corner keys, and the child
+//! slot under a parent quadrant. A slot's canonical corner order is `octowrap_geom::cell`'s.
+
+use octowrap_geom::cell::{SIDE_CORNER_UW, side_axis as normal_axis, side_is_positive as positive};
+pub use octowrap_geom::cell::{side_corners as slot_corners, side_plane_axes as plane_axes};
 
 /// The deepest level whose lattice a file may name (keys then fit in 64 bits with room to spare).
 pub const MAX_LATTICE_DEPTH: u32 = 20;
-
-/// In-plane axes `(u, w)` of each side, chosen so that `u × w` points along the side's outward
-/// normal: sides `0..6` are `+X, -X, +Y, -Y, +Z, -Z`.
-const PLANE_AXES: [(usize, usize); 6] = [(1, 2), (2, 1), (2, 0), (0, 2), (0, 1), (1, 0)];
-
-/// Normal axis of a side.
-pub fn normal_axis(side: u8) -> usize {
-    usize::from(side / 2)
-}
-
-/// Whether a side faces the positive direction of its axis.
-pub fn positive(side: u8) -> bool {
-    side % 2 == 0
-}
-
-/// In-plane axes of a side.
-pub fn plane_axes(side: u8) -> (usize, usize) {
-    PLANE_AXES[usize::from(side)]
-}
-
-/// The four lattice corners of slot `(voxel, side)`, counter-clockwise seen from outside:
-/// `(u, w)` offsets `(0,0), (1,0), (1,1), (0,1)` on the face plane.
-pub fn slot_corners(voxel: [u32; 3], side: u8) -> [[u32; 3]; 4] {
-    let n = normal_axis(side);
-    let (u, w) = plane_axes(side);
-    let mut base = voxel;
-    if positive(side) {
-        base[n] += 1;
-    }
-    let mut out = [base; 4];
-    out[1][u] += 1;
-    out[2][u] += 1;
-    out[2][w] += 1;
-    out[3][w] += 1;
-    out
-}
-
-/// The four in-plane offsets `(u, w)` of a slot's canonical corners (spec §5.3).
-const CORNER_OFFSETS: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
 /// The corner keys (depth `depth`) of the four canonical corners of slot `(voxel, side)`, in
 /// canonical order: [`corner_key`] of [`slot_corners`], with two multiplications instead of eight.
@@ -67,7 +31,7 @@ pub fn slot_corner_keys(voxel: [u32; 3], side: u8, depth: u32) -> [u64; 4] {
 pub fn child_slot_at(voxel: [u32; 3], side: u8, cp: usize, inner: bool) -> ([u32; 3], u8) {
     let n = normal_axis(side);
     let (u, w) = plane_axes(side);
-    let (du, dw) = CORNER_OFFSETS[cp & 3];
+    let (du, dw) = SIDE_CORNER_UW[cp & 3];
     let mut child = [0u32; 3];
     child[u] = 2 * voxel[u] + du;
     child[w] = 2 * voxel[w] + dw;

@@ -3,7 +3,7 @@
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::{
-    DecodeOptions, EncodeOptions, DecodeError, Quantization, canonical, decode, encode, encode_with_stats, read_info,
+    DecodeError, DecodeOptions, EncodeOptions, Quantization, canonical, decode, encode, encode_with_stats, read_info,
 };
 use octowrap_mesh::{Hierarchy, Mesh};
 
