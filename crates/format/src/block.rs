@@ -10,7 +10,7 @@
 use crate::bytes::Reader;
 use crate::container::LevelEntry;
 use crate::error::{DecodeError, Where};
-use crate::lattice::MAX_LATTICE_DEPTH;
+use crate::topology::slots::MAX_LATTICE_DEPTH;
 
 /// Level block header size in bytes (spec §4.1).
 pub const BLOCK_HEADER_SIZE: usize = 64;

@@ -276,6 +276,105 @@ pub fn parse_rest(
     Ok(Preamble { header, levels, metadata })
 }
 
+/// What the preamble of a file says about one level.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct LevelInfo {
+    /// File offset of the stored bytes.
+    pub offset: u64,
+    /// Stored (zstd) size in bytes.
+    pub stored_size: u64,
+    /// Decompressed size in bytes.
+    pub raw_size: u64,
+    /// XXH3-64 of the stored bytes.
+    pub checksum: u64,
+    /// Vertices.
+    pub vertex_count: u32,
+    /// Faces.
+    pub face_count: u32,
+    /// Face corners.
+    pub corner_count: u32,
+}
+
+/// What the preamble of a file says.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FileInfo {
+    /// Format version.
+    pub version: u16,
+    /// `None` for exact files; else the grid.
+    pub grid: Option<GridDescription>,
+    /// The octree cube, when recorded.
+    pub cube: Option<([f64; 3], [f64; 3])>,
+    /// Metadata.
+    pub metadata: MetadataInfo,
+    /// One entry per level.
+    pub levels: Vec<LevelInfo>,
+    /// Bytes before the first level (header, table, metadata, checksum).
+    pub preamble_size: u64,
+}
+
+/// The quantization grid of a file.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GridDescription {
+    /// World position of grid point (0, 0, 0).
+    pub origin: [f64; 3],
+    /// Grid step in world units.
+    pub step: f64,
+    /// Bits (steps across the cube = 2^bits when tied).
+    pub bits: u32,
+    /// Whether the grid is tied to the cube.
+    pub tied_to_cube: bool,
+}
+
+/// Metadata, for reports.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MetadataInfo {
+    /// Length unit.
+    pub units: String,
+    /// Source.
+    pub source: String,
+    /// Writer.
+    pub generator: String,
+    /// Further pairs.
+    pub entries: Vec<(String, String)>,
+}
+
+impl FileInfo {
+    /// The description of a checked preamble.
+    pub fn from_preamble(p: &Preamble) -> Self {
+        let h = &p.header;
+        Self {
+            version: h.version,
+            grid: (h.flags & FLAG_EXACT == 0).then_some(GridDescription {
+                origin: h.origin,
+                step: h.step,
+                bits: h.grid_bits,
+                tied_to_cube: h.flags & FLAG_TIED != 0,
+            }),
+            cube: (h.flags & FLAG_CUBE != 0).then_some((h.cube_min, h.cube_max)),
+            metadata: MetadataInfo {
+                units: p.metadata.units.clone(),
+                source: p.metadata.source.clone(),
+                generator: p.metadata.generator.clone(),
+                entries: p.metadata.entries.clone(),
+            },
+            levels: p
+                .levels
+                .iter()
+                .map(|e| LevelInfo {
+                    offset: e.offset,
+                    stored_size: e.stored_size,
+                    raw_size: e.raw_size,
+                    checksum: e.checksum,
+                    vertex_count: e.vertex_count,
+                    face_count: e.face_count,
+                    corner_count: e.corner_count,
+                })
+                .collect(),
+            preamble_size: p.size(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

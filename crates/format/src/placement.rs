@@ -10,13 +10,14 @@
 
 use octowrap_mesh::{Aabb, DVec3, FaceList, Hierarchy, Mesh};
 
+use crate::EncodeOptions;
 use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
-use crate::decode::PlainLevel;
-use crate::encode::{self, Encoded};
+use crate::encoder::{Grid, choose_grid, input_level};
 use crate::error::EncodeError;
-use crate::fast::{self, FixedLine};
-use crate::level::{GRID_LIMIT, GeometryScratch, Line, Topo, geometry_pass};
-use crate::{EncodeOptions, Grid, choose_grid, input_level};
+use crate::geometry::fixed::{self as fast, FixedLine};
+use crate::geometry::predict::{GRID_LIMIT, GeometryScratch, Line, Topo, geometry_pass};
+use crate::level_decode::PlainLevel;
+use crate::level_encode::{self as encode, Encoded};
 
 /// What [`place_on_prediction_lines`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

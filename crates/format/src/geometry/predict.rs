@@ -1,27 +1,16 @@
-//! Definitions shared by the level encoder and decoder (spec §4-§6): the level block header,
-//! stream numbering, rotations, the canonical-subdivision names, and the geometry predictor.
+//! Geometry of modes 0-2 (spec §6.2-§6.7): the context and the two passes, the lattice
+//! predictors (§6.3), the subdivision predictor (§6.4), the neighbour predictor (§6.5) and line
+//! geometry (§6.6).
 //!
 //! The geometry pass ([`geometry_pass`]) is one function used by both directions, so that encoder
 //! and decoder cannot disagree on a prediction.
 
 use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
-use crate::lattice;
-
-/// "No parent" in plain parent arrays.
-pub const NO_PARENT: u32 = u32::MAX;
-/// "No prediction" in per-corner arrays.
-pub const NONE: u32 = u32::MAX;
-/// "No canonical position" in per-corner position arrays.
-pub const NO_POS: u8 = u8::MAX;
+use crate::topology::slots as lattice;
+use crate::topology::{NO_PARENT, NO_POS, NONE, Parent};
 
 /// The largest grid coordinate magnitude (spec §3.5).
 pub const GRID_LIMIT: i64 = 1 << 28;
-
-/// Canonical position of face corner `k` under rotation byte `rot` (spec §5.3).
-pub fn rotated(rot: u8, k: usize) -> usize {
-    let r = usize::from(rot & 3);
-    if rot & 4 == 0 { (r + k) % 4 } else { (r + 4 - k) % 4 }
-}
 
 /// `a / b` rounded to the nearest integer, halves upwards (`b > 0`).
 #[inline]
@@ -39,163 +28,6 @@ pub fn round_div(a: i64, b: i64) -> i64 {
         ((2 * i128::from(a) + i128::from(b)).div_euclid(2 * i128::from(b))) as i64
     }
 }
-/// Edge numbering of a polygon mesh in order of first appearance (spec §5.4): for every face
-/// corner, the id of the edge from it to the next corner, and the number of edges.
-///
-/// No hashing: corners are bucketed by the smaller vertex of their edge (counting sort, corner
-/// order kept), each corner finds the first corner of its bucket with the same larger vertex (a
-/// scan in small buckets, a sort in large ones), and ids follow in corner order.
-pub fn number_edges(offsets: &[u32], indices: &[u32]) -> (Vec<u32>, u32) {
-    let nc = indices.len();
-    let nv = indices.iter().map(|&v| v as usize + 1).max().unwrap_or(0);
-    // The other end of every corner's edge.
-    let mut other = vec![0u32; nc];
-    for w in offsets.windows(2) {
-        let (a, b) = (w[0] as usize, w[1] as usize);
-        for c in a..b {
-            other[c] = indices[if c + 1 == b { a } else { c + 1 }];
-        }
-    }
-    let mut start = vec![0u32; nv + 1];
-    for c in 0..nc {
-        start[indices[c].min(other[c]) as usize + 1] += 1;
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    let mut bucket = vec![0u32; nc];
-    let mut fill = start.clone();
-    for c in 0..nc {
-        let lo = indices[c].min(other[c]) as usize;
-        bucket[fill[lo] as usize] = c as u32;
-        fill[lo] += 1;
-    }
-    drop(fill);
-    // first[c]: the first corner (in corner order) with the same unordered edge.
-    let mut first = vec![0u32; nc];
-    let hi = |c: u32| indices[c as usize].max(other[c as usize]);
-    let mut scratch: Vec<(u32, u32)> = Vec::new();
-    for w in start.windows(2) {
-        let group = &bucket[w[0] as usize..w[1] as usize];
-        if group.len() <= 16 {
-            for (i, &c) in group.iter().enumerate() {
-                let h = hi(c);
-                let f = group[..i].iter().find(|&&d| hi(d) == h).copied().unwrap_or(c);
-                first[c as usize] = f;
-            }
-        } else {
-            scratch.clear();
-            scratch.extend(group.iter().map(|&c| (hi(c), c)));
-            scratch.sort_unstable();
-            let mut lead: Option<(u32, u32)> = None;
-            for &(h, c) in &scratch {
-                if lead.is_none_or(|l| l.0 != h) {
-                    lead = Some((h, c));
-                }
-                first[c as usize] = lead.map_or(c, |l| l.1);
-            }
-        }
-    }
-    let mut edge_of_corner = vec![0u32; nc];
-    let mut next = 0u32;
-    for c in 0..nc {
-        let f = first[c] as usize;
-        if f == c {
-            edge_of_corner[c] = next;
-            next += 1;
-        } else {
-            edge_of_corner[c] = edge_of_corner[f];
-        }
-    }
-    (edge_of_corner, next)
-}
-
-/// The parent level, as the refinement coders see it.
-pub struct Parent<'a> {
-    /// Face offsets (CSR).
-    pub offsets: &'a [u32],
-    /// Face corner indices.
-    pub indices: &'a [u32],
-    /// Grid coordinates of the parent's vertices (empty for exact files).
-    pub q: &'a [[i64; 3]],
-    /// Lattice slots of the parent's faces, if any.
-    pub slots: Option<&'a [([u32; 3], u8)]>,
-    /// Lattice corners of the parent's vertices, if any.
-    pub corners: Option<&'a [[u32; 3]]>,
-    /// Per face, its orientation when known in advance (`u8::MAX`: compute it), or empty.
-    pub rotation_hints: &'a [u8],
-}
-
-impl Parent<'_> {
-    /// Number of faces.
-    pub fn face_count(&self) -> usize {
-        self.offsets.len() - 1
-    }
-    /// Corners of face `f`.
-    pub fn face(&self, f: usize) -> &[u32] {
-        &self.indices[self.offsets[f] as usize..self.offsets[f + 1] as usize]
-    }
-
-    /// For lattice refinement (spec §5.3): per parent face, its orientation byte (the first
-    /// rotation byte, `0..8`, matching the most corners' lattice points to the slot's canonical
-    /// corners) and its vertices in canonical corner order. `Err(f)`: face `f` is not a quad, or
-    /// the level has no lattice coordinates.
-    #[allow(clippy::needless_range_loop)]
-    pub fn canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
-        let (Some(slots), Some(corners)) = (self.slots, self.corners) else { return Err(0) };
-        let mut out = Vec::with_capacity(self.face_count());
-        for f in 0..self.face_count() {
-            let face = self.face(f);
-            if face.len() != 4 {
-                return Err(f);
-            }
-            if let Some(&r) = self.rotation_hints.get(f).filter(|&&r| r < 8) {
-                // A mode 3 face without exceptions: every corner sits on the slot corner its
-                // rotation byte puts it at, so that rotation is the only one matching all four.
-                let mut quad = [0u32; 4];
-                for (k, &vi) in face.iter().enumerate() {
-                    quad[rotated(r, k)] = vi;
-                }
-                out.push((quad, r));
-                continue;
-            }
-            let (v, d) = slots[f];
-            let sc = lattice::slot_corners(v, d);
-            let at = |k: usize| corners.get(face[k] as usize);
-            let full = |r: u8| (0..4).all(|k| at(k) == Some(&sc[rotated(r, k)]));
-            // The common case: corner 0 names a slot corner and the rotation through it matches
-            // all four (then no other rotation can, so it is the first best).
-            let first = sc.iter().position(|c| at(0) == Some(c)).map(|t| t as u8);
-            let rot = match first {
-                Some(t) if full(t) => t,
-                Some(t) if full(t | 4) => t | 4,
-                _ => best_rotation(|r, k| at(k) == Some(&sc[rotated(r, k)])),
-            };
-            let mut quad = [0u32; 4];
-            for (k, &vi) in face.iter().enumerate() {
-                quad[rotated(rot, k)] = vi;
-            }
-            out.push((quad, rot));
-        }
-        Ok(out)
-    }
-}
-
-/// The first rotation byte (`0..8`) under which the most of the four corners match.
-pub fn best_rotation(mut matches: impl FnMut(u8, usize) -> bool) -> u8 {
-    let mut best = (0usize, 0u8);
-    for rot in 0..8u8 {
-        let m = (0..4).filter(|&i| matches(rot, i)).count();
-        if m > best.0 {
-            best = (m, rot);
-        }
-        if m == 4 {
-            break;
-        }
-    }
-    best.1
-}
-
 /// Where a refinement level's faces and corners come from, as the geometry pass needs it.
 pub struct Topo<'a> {
     /// Coding mode.
@@ -732,44 +564,7 @@ pub fn newell_normal(pq: &[[i64; 3]], face: &[u32]) -> [f64; 3] {
 
 #[cfg(test)]
 mod tests {
-    use super::{LINE_PARAM_LIMIT, Line, number_edges, round_away, round_div};
-
-    #[test]
-    fn edges_numbered_like_a_hash_map_would() {
-        let reference = |offsets: &[u32], indices: &[u32]| {
-            let mut ids = std::collections::HashMap::new();
-            let mut out = Vec::new();
-            for w in offsets.windows(2) {
-                let (a, b) = (w[0] as usize, w[1] as usize);
-                for c in a..b {
-                    let (u, v) = (indices[c], indices[if c + 1 == b { a } else { c + 1 }]);
-                    let n = ids.len() as u32;
-                    out.push(*ids.entry((u.min(v), u.max(v))).or_insert(n));
-                }
-            }
-            let n = ids.len() as u32;
-            (out, n)
-        };
-        let mut x = 12_345u64;
-        let mut next = |m: u64| {
-            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            ((x >> 33) % m) as u32
-        };
-        // Random polygons over few vertices (big buckets, repeated and degenerate edges) and many.
-        for nv in [3u64, 5, 40, 1000] {
-            let mut offsets = vec![0u32];
-            let mut indices = Vec::new();
-            for _ in 0..300 {
-                let n = 3 + next(4);
-                for _ in 0..n {
-                    indices.push(next(nv));
-                }
-                offsets.push(indices.len() as u32);
-            }
-            assert_eq!(number_edges(&offsets, &indices), reference(&offsets, &indices), "nv {nv}");
-        }
-        assert_eq!(number_edges(&[0], &[]), (vec![], 0));
-    }
+    use super::{LINE_PARAM_LIMIT, Line, round_away, round_div};
 
     #[test]
     fn every_line_point_has_one_parameter() {

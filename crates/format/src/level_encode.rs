@@ -4,13 +4,13 @@
 
 use crate::block::{BLOCK_FLAG_LATTICE, MAX_LINE_SHIFT, Mode, PREDICTOR_LINES, STREAM_COUNT, s};
 use crate::bytes::{put_planes, put_varint, zigzag};
-use crate::decode::PlainLevel;
 use crate::error::EncodeError;
-use crate::fast;
-use crate::lattice::{self, MAX_LATTICE_DEPTH};
-use crate::level::{
-    GeometryScratch, NO_PARENT, NO_POS, Parent, Topo, best_rotation, geometry_pass, number_edges, rotated,
-};
+use crate::geometry::fixed as fast;
+use crate::geometry::predict::{GeometryScratch, Topo, geometry_pass};
+use crate::geometry::residuals::put_grid_streams;
+use crate::level_decode::PlainLevel;
+use crate::topology::slots::{self as lattice, MAX_LATTICE_DEPTH};
+use crate::topology::{NO_PARENT, NO_POS, Parent, best_rotation, number_edges, rotated};
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
 pub struct InputLevel<'a> {
@@ -571,28 +571,6 @@ fn fast_geometry(
     let mut g = Vec::new();
     put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
     (g, js)
-}
-
-/// Writes the layout of a grid level's geometry stream (spec §6.1, §6.6, §6.8): with lines, the
-/// bitmap of line vertices and their parameters, then the other vertices' residuals in coding
-/// order; without, the residuals of every vertex, put back in vertex order (`order` lists the
-/// vertices in coding order).
-fn put_grid_streams(g: &mut Vec<u8>, lines: Option<(&[u8], &[u64])>, mut res: [Vec<u64>; 3], order: &[u32], nv: usize) {
-    if let Some((flags, params)) = lines {
-        g.extend(flags);
-        put_planes(g, params);
-    } else {
-        for r in &mut res {
-            let mut by_vertex = vec![0u64; nv];
-            for (i, &v) in order.iter().enumerate() {
-                by_vertex[v as usize] = r[i];
-            }
-            *r = by_vertex;
-        }
-    }
-    for r in &res {
-        put_planes(g, r);
-    }
 }
 
 /// Mode 3's vertex numbering (spec §5.9): vertices by first use in corner order, the split keys,
