@@ -66,36 +66,77 @@ pub struct ResolveStreams<'s, 'a> {
 /// its canonical quad and orientation.
 pub type LevelFaces<'a> = (&'a [u32], &'a [u8], &'a [([u32; 4], u8)]);
 
-#[allow(clippy::too_many_lines, clippy::too_many_arguments)] // spec §5.9 in order
+/// The open-addressing table of a level's keys (§5.9): per key its vertex, or for split keys the
+/// list of their vertices so far.
+struct KeyTable<'s> {
+    keys: &'s mut [u64],
+    values: &'s mut [u32],
+    split_vertices: &'s mut Vec<Vec<u32>>,
+    mask: usize,
+}
+
+/// The vertices numbered so far: per vertex its lattice corner, and the contexts found on the way.
+struct Numbering<'s> {
+    corners: Vec<[u32; 3]>,
+    ctx: &'s mut Contexts,
+    keys_at: CornerKeys,
+    nv: usize,
+}
+
+impl Numbering<'_> {
+    /// Numbers a new vertex at `key`, first used by corner `c`; fails when `vertex_count` is
+    /// reached (the error from `r`).
+    #[inline]
+    fn push(&mut self, key: u64, c: usize, r: &Reader<'_>) -> Result<u32, DecodeError> {
+        let v = self.corners.len();
+        if v == self.nv {
+            return Err(r.invalid(format!("corners number more than vertex_count ({}) vertices", self.nv)));
+        }
+        self.corners.push(self.keys_at.corner(key));
+        self.ctx.first[v] = c as u32;
+        Ok(v as u32)
+    }
+}
+
 /// Corner resolution of mode 3 (spec §5.9): `pred[c]` is corner `c`'s predicted lattice key
 /// (depth `k`, valid); fills `indices` (corner to vertex, first-use numbering), clears `pos[c]` at
 /// exception corners (and `rotation_hints` of their faces), and returns every vertex's lattice
-/// corner.
+/// corner. The contexts of [`crate::geometry::fixed::contexts`] are found on the way (the decoder
+/// needs no second pass).
 pub fn resolve(
     k: u32,
     nv: usize,
-    pred: &[u64],
-    pos: &mut [u8],
-    indices: &mut [u32],
+    (pred, pos): (&[u64], &mut [u8]),
+    (indices, rotation_hints): (&mut [u32], &mut [u8]),
     st: ResolveStreams<'_, '_>,
-    scratch: &mut ResolveScratch,
-    (parents, quadrants, parent_quads): LevelFaces<'_>,
-    ctx: &mut Contexts,
-    rotation_hints: &mut [u8],
+    faces: LevelFaces<'_>,
+    (scratch, ctx): (&mut ResolveScratch, &mut Contexts),
 ) -> Result<Vec<[u32; 3]>, DecodeError> {
     let nc = pred.len();
-    // The contexts of [`contexts`], found on the way (the decoder needs no second pass).
     ctx.first.clear();
     ctx.first.resize(nv, NONE);
     ctx.face.clear();
     ctx.face.resize(nv, NONE);
     ctx.stencil.clear();
     ctx.stencil.resize(nv, 0);
-    let (mut fpf, mut fu, mut fw) = (NONE, 0u8, 0u8);
-    let keys_at = CornerKeys::new(k);
-    let valid = |key: u64| lattice::corner_from_key(key, k).is_some();
-    // Split keys: a gap list (strictly increasing), each valid.
-    let r = st.splits;
+    let mut table = split_keys(k, nv, nc, st.splits, scratch)?;
+    let mut numbering = Numbering { corners: Vec::with_capacity(nv), ctx, keys_at: CornerKeys::new(k), nv };
+    let exceptions = ExceptionList::read(st.exceptions, nc)?;
+    let streams = (exceptions, st.exceptions, st.choices);
+    number_corners(k, (pred, pos), (indices, rotation_hints), streams, faces, &mut table, &mut numbering)?;
+    unused_vertices(k, nv, st.extras, &mut numbering)?;
+    Ok(numbering.corners)
+}
+
+/// Reads the split keys (a gap list, strictly increasing, each a lattice corner of depth `k`) into
+/// a fresh key table sized for `nv` vertices.
+fn split_keys<'s>(
+    k: u32,
+    nv: usize,
+    nc: usize,
+    r: &mut Reader<'_>,
+    scratch: &'s mut ResolveScratch,
+) -> Result<KeyTable<'s>, DecodeError> {
     let ns = r.varint_max(nc as u64, "split key count")? as usize;
     if ns > r.remaining() {
         return Err(r.invalid(format!("{ns} split keys do not fit in the stream")));
@@ -112,21 +153,56 @@ pub fn resolve(
     for i in 0..ns {
         let gap = r.varint()?;
         key = if i == 0 { Some(gap) } else { key.checked_add(1).and_then(|x| x.checked_add(gap)) }
-            .filter(|&x| valid(x))
+            .filter(|&x| lattice::corner_from_key(x, k).is_some())
             .ok_or_else(|| r.invalid(format!("split key {i} is not a lattice corner of level {k}")))?;
         let e = probe(keys, key, mask);
         keys[e] = key + 1;
         values[e] = SPLIT | i as u32;
         split_vertices.push(Vec::new());
     }
-    let mut corners: Vec<[u32; 3]> = Vec::with_capacity(nv);
-    // Registers a new vertex under `key` (spec §5.9: every numbered vertex is found by its key).
-    let e = st.exceptions;
-    let nexc = e.varint_max(nc as u64, "exception count")? as usize;
-    let mut exc_left = nexc;
-    let mut next_exc = if nexc > 0 { e.varint_max(nc as u64, "exception position")? as usize } else { usize::MAX };
-    let ch = st.choices;
-    let too_many = |r: &Reader<'_>| r.invalid(format!("corners number more than vertex_count ({nv}) vertices"));
+    Ok(KeyTable { keys, values, split_vertices, mask })
+}
+
+/// The exception positions of a level: a count, then a gap list read one at a time.
+struct ExceptionList {
+    left: usize,
+    next: usize,
+}
+
+impl ExceptionList {
+    fn read(e: &mut Reader<'_>, nc: usize) -> Result<Self, DecodeError> {
+        let left = e.varint_max(nc as u64, "exception count")? as usize;
+        let next = if left > 0 { e.varint_max(nc as u64, "exception position")? as usize } else { usize::MAX };
+        Ok(Self { left, next })
+    }
+
+    /// Moves past the exception at corner `c`.
+    fn advance(&mut self, e: &mut Reader<'_>, nc: usize, c: usize) -> Result<(), DecodeError> {
+        self.left -= 1;
+        self.next = if self.left > 0 {
+            let gap = e.varint_max(nc as u64, "exception position gap")? as usize;
+            c + 1 + gap
+        } else {
+            usize::MAX
+        };
+        Ok(())
+    }
+}
+
+/// Numbers the corners in order (§5.9): exceptions name an earlier vertex or a new one at a key
+/// near the prediction; other corners find their key's vertex, number a new one, or pick one of a
+/// split key's vertices.
+fn number_corners(
+    k: u32,
+    (pred, pos): (&[u64], &mut [u8]),
+    (indices, rotation_hints): (&mut [u32], &mut [u8]),
+    (mut exc, e, ch): (ExceptionList, &mut Reader<'_>, &mut Reader<'_>),
+    (parents, quadrants, parent_quads): LevelFaces<'_>,
+    table: &mut KeyTable<'_>,
+    numbering: &mut Numbering<'_>,
+) -> Result<(), DecodeError> {
+    let nc = pred.len();
+    let (mut fpf, mut fu, mut fw) = (NONE, 0u8, 0u8);
     for c in 0..nc {
         if c % 4 == 0 {
             // A new face: its parent and the in-plane offsets of its quadrant's corner.
@@ -137,86 +213,102 @@ pub fn resolve(
                 (fu, fw) = OFFSETS[usize::from(t)];
             }
         }
-        if c == next_exc {
-            let next = corners.len();
-            let v = e.varint_max(next as u64, "exception vertex")? as usize;
-            if v == next {
-                if next == nv {
-                    return Err(too_many(e));
-                }
-                let d = crate::bytes::unzigzag(e.varint()?);
-                let key = pred[c]
-                    .checked_add_signed(d)
-                    .filter(|&x| valid(x))
-                    .ok_or_else(|| e.invalid(format!("exception key at corner {c} is not a lattice corner")))?;
-                let slot = probe(keys, key, mask);
-                if keys[slot] == 0 {
-                    keys[slot] = key + 1;
-                    values[slot] = v as u32;
-                } else if values[slot] & SPLIT != 0 {
-                    split_vertices[(values[slot] & !SPLIT) as usize].push(v as u32);
-                } else {
-                    return Err(e.invalid(format!("two vertices at key {key}, which is not a split key")));
-                }
-                corners.push(keys_at.corner(key));
-                ctx.first[v] = c as u32;
-            }
-            indices[c] = v as u32;
+        if c == exc.next {
+            indices[c] = exception_vertex(k, c, pred[c], e, table, numbering)?;
             pos[c] = NO_POS;
             // The face's corners no longer all sit on its slot's canonical corners.
             rotation_hints[c / 4] = u8::MAX;
-            exc_left -= 1;
-            next_exc = if exc_left > 0 {
-                let gap = e.varint_max(nc as u64, "exception position gap")? as usize;
-                c + 1 + gap
-            } else {
-                usize::MAX
-            };
+            exc.advance(e, nc, c)?;
             continue;
         }
-        let key = pred[c];
-        let slot = probe(keys, key, mask);
-        let v = if keys[slot] == 0 {
-            let v = corners.len();
-            if v == nv {
-                return Err(too_many(ch));
-            }
-            keys[slot] = key + 1;
-            values[slot] = v as u32;
-            corners.push(keys_at.corner(key));
-            ctx.first[v] = c as u32;
-            v as u32
-        } else if values[slot] & SPLIT == 0 {
-            values[slot]
-        } else {
-            let list = &mut split_vertices[(values[slot] & !SPLIT) as usize];
-            let o = ch.varint_max(list.len() as u64, "choice")? as usize;
-            if o == list.len() {
-                let v = corners.len();
-                if v == nv {
-                    return Err(too_many(ch));
-                }
-                list.push(v as u32);
-                corners.push(keys_at.corner(key));
-                ctx.first[v] = c as u32;
-                v as u32
-            } else {
-                list[o]
-            }
-        };
+        let v = predicted_vertex(c, pred[c], ch, table, numbering)?;
         indices[c] = v;
         let sp = pos[c];
+        let ctx = &mut *numbering.ctx;
         if sp != NO_POS && ctx.face[v as usize] == NONE {
             let (eu, ew) = OFFSETS[usize::from(sp & 3)];
             ctx.face[v as usize] = fpf;
             ctx.stencil[v as usize] = 3 * (fu + eu) + (fw + ew);
         }
     }
-    if next_exc != usize::MAX {
-        return Err(e.invalid(format!("exception position {next_exc} is beyond the corners")));
+    if exc.next != usize::MAX {
+        return Err(e.invalid(format!("exception position {} is beyond the corners", exc.next)));
     }
-    // Vertices no corner uses: their keys as zigzag deltas.
-    let r = st.extras;
+    Ok(())
+}
+
+/// The vertex of exception corner `c`: an earlier vertex, or a new one at the predicted key
+/// moved by a zigzag delta (a valid key, new or split).
+fn exception_vertex(
+    k: u32,
+    c: usize,
+    pred: u64,
+    e: &mut Reader<'_>,
+    table: &mut KeyTable<'_>,
+    numbering: &mut Numbering<'_>,
+) -> Result<u32, DecodeError> {
+    let next = numbering.corners.len();
+    let v = e.varint_max(next as u64, "exception vertex")? as usize;
+    if v == next {
+        if next == numbering.nv {
+            return Err(e.invalid(format!("corners number more than vertex_count ({next}) vertices")));
+        }
+        let d = crate::bytes::unzigzag(e.varint()?);
+        let key = pred
+            .checked_add_signed(d)
+            .filter(|&x| lattice::corner_from_key(x, k).is_some())
+            .ok_or_else(|| e.invalid(format!("exception key at corner {c} is not a lattice corner")))?;
+        let slot = probe(table.keys, key, table.mask);
+        let is_new = table.keys[slot] == 0;
+        let is_split = !is_new && table.values[slot] & SPLIT != 0;
+        if !is_new && !is_split {
+            return Err(e.invalid(format!("two vertices at key {key}, which is not a split key")));
+        }
+        numbering.push(key, c, e)?;
+        if is_new {
+            table.keys[slot] = key + 1;
+            table.values[slot] = v as u32;
+        } else {
+            table.split_vertices[(table.values[slot] & !SPLIT) as usize].push(v as u32);
+        }
+    }
+    Ok(v as u32)
+}
+
+/// The vertex of corner `c` at its predicted key: the key's vertex, a new one, or (split keys)
+/// the one its choice names.
+#[inline]
+fn predicted_vertex(
+    c: usize,
+    key: u64,
+    ch: &mut Reader<'_>,
+    table: &mut KeyTable<'_>,
+    numbering: &mut Numbering<'_>,
+) -> Result<u32, DecodeError> {
+    let slot = probe(table.keys, key, table.mask);
+    if table.keys[slot] == 0 {
+        let v = numbering.push(key, c, ch)?;
+        table.keys[slot] = key + 1;
+        table.values[slot] = v;
+        return Ok(v);
+    }
+    if table.values[slot] & SPLIT == 0 {
+        return Ok(table.values[slot]);
+    }
+    let list = &mut table.split_vertices[(table.values[slot] & !SPLIT) as usize];
+    let o = ch.varint_max(list.len() as u64, "choice")? as usize;
+    if o < list.len() {
+        return Ok(list[o]);
+    }
+    let v = numbering.push(key, c, ch)?;
+    table.split_vertices[(table.values[slot] & !SPLIT) as usize].push(v);
+    Ok(v)
+}
+
+/// The vertices no corner uses (`extra_names`): their count, which must complete
+/// `vertex_count`, and their keys as zigzag deltas.
+fn unused_vertices(k: u32, nv: usize, r: &mut Reader<'_>, numbering: &mut Numbering<'_>) -> Result<(), DecodeError> {
+    let corners = &mut numbering.corners;
     let left = nv - corners.len();
     let n = r.varint_max(left as u64, "extra vertex count")? as usize;
     if n != left {
@@ -227,9 +319,9 @@ pub fn resolve(
         let d = crate::bytes::unzigzag(r.varint()?);
         key = key
             .checked_add_signed(d)
-            .filter(|&x| valid(x))
+            .filter(|&x| lattice::corner_from_key(x, k).is_some())
             .ok_or_else(|| r.invalid("extra vertex key is not a lattice corner"))?;
-        corners.push(keys_at.corner(key));
+        corners.push(numbering.keys_at.corner(key));
     }
-    Ok(corners)
+    Ok(())
 }

@@ -5,11 +5,12 @@
 //! (mode 3, §5.9); `names` holds §5.5 and §5.6 (names, splits, corners: modes 1 and 2), `slots`
 //! the lattice keys of §5.3 and §5.8.
 
+pub mod base;
 pub mod first_use;
+pub mod generic;
+pub mod lattice;
 pub mod names;
 pub mod slots;
-
-use slots as lattice;
 
 /// `rotated(r, i)` (spec §5.2) for every rotation byte `r < 8` and corner `i < 4`.
 pub const ROTATIONS: [[u8; 4]; 8] = {
@@ -161,7 +162,7 @@ impl Parent<'_> {
                 continue;
             }
             let (v, d) = slots[f];
-            let sc = lattice::slot_corners(v, d);
+            let sc = slots::slot_corners(v, d);
             let at = |k: usize| corners.get(face[k] as usize);
             let full = |r: u8| (0..4).all(|k| at(k) == Some(&sc[rotated(r, k)]));
             // The common case: corner 0 names a slot corner and the rotation through it matches

@@ -1,7 +1,12 @@
-//! Names and splits (spec §5.5) of modes 1 and 2: the level's name set, the sorted distinct names
-//! its corners predict plus the extra names, found in linear time.
+//! Names and splits (spec §5.5) and corners (§5.6) of modes 1 and 2: the level's name set (the
+//! sorted distinct names its corners predict, found in linear time, plus the extra names), the
+//! vertices of each name, and every corner's vertex.
 
-use crate::topology::NONE;
+use crate::block::{Mode, s};
+use crate::bytes::{Reader, unzigzag};
+use crate::error::{DecodeError, Where};
+use crate::topology::slots as lattice;
+use crate::topology::{NO_POS, NONE};
 
 /// The sorted distinct predicted names (into `names`), and per corner the index of its name
 /// (into `name_of`; `NONE` for corners without a prediction). `bounds`: the smallest and largest
@@ -134,6 +139,222 @@ fn radix_passes<T: Copy>(items: &mut Vec<T>, tmp: &mut Vec<T>, from: u32, to: u3
         std::mem::swap(items, tmp);
         shift += 11;
     }
+}
+
+/// The buffers of [`decode_names`].
+#[derive(Default)]
+pub struct NameScratch {
+    /// The level's names, sorted.
+    pub names: Vec<u64>,
+    /// Per corner: the index of its name, or [`NONE`].
+    pub name_of: Vec<u32>,
+    /// [`sort_names`]' bitmap and ranks.
+    pub bits: Vec<u64>,
+    /// See `bits`.
+    pub rank: Vec<u32>,
+}
+
+impl NameScratch {
+    /// Bytes held by the buffers.
+    pub fn capacity_bytes(&self) -> usize {
+        self.names.capacity() * 8 + self.name_of.capacity() * 4 + self.bits.capacity() * 8 + self.rank.capacity() * 4
+    }
+}
+
+/// A refinement level's names (§5.5) and how many vertices each has.
+pub struct NameSet<'a> {
+    /// The name set, sorted.
+    pub names: &'a [u64],
+    /// Per corner: the index of its name, or [`NONE`] (explicit corners).
+    pub name_of: &'a [u32],
+    /// Per name: its vertex count.
+    pub count: Vec<u32>,
+    /// Number of split entries.
+    pub nsplit: usize,
+}
+
+/// Decodes the name set and splits of a mode 1 or 2 level of depth `k` (§5.5) from the
+/// corners' predicted names `pred` (`name_bounds`: their range and number when every corner
+/// has one) and the `extra_names` and `splits` streams.
+pub fn decode_names<'a>(
+    (k, mode, nv): (u32, Mode, usize),
+    st: &mut [Reader<'_>],
+    pred: &[u64],
+    name_bounds: Option<(u64, u64, usize)>,
+    scratch: &'a mut NameScratch,
+) -> Result<NameSet<'a>, DecodeError> {
+    // §5.5: the name set and splits.
+    // Predicted names, sorted once (radix); `name_of[c]` = the index of corner c's name.
+    let NameScratch { names, name_of, bits, rank } = scratch;
+    sort_names(pred, name_bounds, names, name_of, bits, rank);
+    let r = &mut st[s::EXTRA_NAMES];
+    let ne = r.varint_max(nv as u64, "extra name count")? as usize;
+    if ne > r.remaining() {
+        return Err(r.invalid(format!("{ne} extra names do not fit in the stream")));
+    }
+    let mut extras = Vec::with_capacity(ne);
+    let mut name = 0u64;
+    for i in 0..ne {
+        let gap = r.varint()?;
+        name = if i == 0 { Some(gap) } else { name.checked_add(1).and_then(|x| x.checked_add(gap)) }
+            .filter(|&x| x != u64::MAX)
+            .ok_or_else(|| r.invalid("extra name overflows"))?;
+        if names.binary_search(&name).is_ok() {
+            return Err(r.invalid(format!("extra name {name} is already a predicted name")));
+        }
+        if mode == Mode::Lattice && lattice::corner_from_key(name, k).is_none() {
+            return Err(r.invalid(format!("extra name {name} is not a lattice corner of level {k}")));
+        }
+        extras.push(name);
+    }
+    if !extras.is_empty() {
+        // Merge the extras in and shift the corners' name indices.
+        let mut merged = Vec::with_capacity(names.len() + extras.len());
+        let mut shift = Vec::with_capacity(names.len());
+        let mut e = 0;
+        for &n in names.iter() {
+            while e < extras.len() && extras[e] < n {
+                merged.push(extras[e]);
+                e += 1;
+            }
+            shift.push(merged.len() as u32);
+            merged.push(n);
+        }
+        merged.extend_from_slice(&extras[e..]);
+        for x in name_of.iter_mut() {
+            if *x != NONE {
+                *x = shift[*x as usize];
+            }
+        }
+        *names = merged;
+    }
+    let mut count = vec![1u32; names.len()];
+    let r = &mut st[s::SPLITS];
+    let nsplit = r.varint_max(names.len() as u64, "split count")? as usize;
+    let mut idx = 0usize;
+    // Vertices: one per name without a split entry, plus the counts of the entries.
+    let mut counted = 0u64;
+    for i in 0..nsplit {
+        let gap = r.varint_max(names.len() as u64, "split index gap")? as usize;
+        idx = if i == 0 { gap } else { idx + 1 + gap };
+        if idx >= names.len() {
+            return Err(r.invalid(format!("split names index {idx}, there are {} names", names.len())));
+        }
+        let at = r.offset();
+        let c = r.varint_max(nv as u64, "split vertex count")?;
+        if c == 1 {
+            return Err(DecodeError::Invalid {
+                place: Where::Payload(k),
+                offset: at,
+                what: "splits",
+                reason: "a split entry must not say 1".into(),
+            });
+        }
+        counted += c;
+        if counted > nv as u64 {
+            return Err(r.invalid("splits make more vertices than vertex_count"));
+        }
+        count[idx] = c as u32;
+    }
+    let total = counted + (names.len() - nsplit) as u64;
+    if total != nv as u64 {
+        return Err(st[s::SPLITS].invalid(format!("names and splits make {total} vertices, vertex_count is {nv}")));
+    }
+    Ok(NameSet { names, name_of, count, nsplit })
+}
+
+/// Resolves every corner of a mode 1 or 2 level to its vertex (§5.6 Corners) into `indices`:
+/// through its name and, for split names, a choice; exceptions name their vertex; explicit
+/// corners (no prediction) read theirs from `corners`. Clears `pos` at exceptions.
+pub fn decode_corners(
+    [nv, nc]: [usize; 2],
+    st: &mut [Reader<'_>],
+    (pred, name_bounds): (&[u64], Option<(u64, u64, usize)>),
+    set: &NameSet<'_>,
+    (indices, pos): (&mut [u32], &mut [u8]),
+) -> Result<(), DecodeError> {
+    let NameSet { names, name_of, count, nsplit } = set;
+    let nsplit = *nsplit;
+    // §5.6: corners to vertices.
+    let nexc = st[s::EXCEPTIONS].varint_max(nc as u64, "exception count")? as usize;
+    let explicit = name_bounds.is_none() && pred.contains(&u64::MAX);
+    if nsplit == 0 && !explicit {
+        // One vertex per name, numbered as the names: corner c's vertex is its name's index,
+        // then the exceptions.
+        indices.copy_from_slice(name_of);
+        let r = &mut st[s::EXCEPTIONS];
+        let mut at = 0u64;
+        for i in 0..nexc {
+            let c = if i == 0 {
+                r.varint_max(nc as u64, "exception position")?
+            } else {
+                at + 1 + r.varint_max(nc as u64, "exception position gap")?
+            };
+            if c >= nc as u64 {
+                return Err(r.invalid(format!("exception position {c} is beyond the corners")));
+            }
+            let v = r.varint_max(nv.saturating_sub(1) as u64, "exception vertex")?;
+            if nv == 0 {
+                return Err(r.invalid("exception in a level without vertices"));
+            }
+            indices[c as usize] = v as u32;
+            pos[c as usize] = NO_POS;
+            at = c;
+        }
+    } else {
+        let mut first = Vec::with_capacity(names.len() + 1);
+        let mut acc = 0u32;
+        for &c in count {
+            first.push(acc);
+            acc += c;
+        }
+        first.push(acc);
+        let mut exc_left = nexc;
+        let mut next_exc =
+            if nexc > 0 { Some(st[s::EXCEPTIONS].varint_max(nc as u64, "exception position")?) } else { None };
+        let mut prev_explicit = 0i64;
+        for c in 0..nc {
+            if pred[c] == u64::MAX {
+                prev_explicit = prev_explicit.wrapping_add(unzigzag(st[s::CORNERS].varint()?));
+                if prev_explicit < 0 || prev_explicit >= nv as i64 {
+                    return Err(st[s::CORNERS].invalid(format!("vertex index {prev_explicit} out of range 0..{nv}")));
+                }
+                indices[c] = prev_explicit as u32;
+                if next_exc == Some(c as u64) {
+                    return Err(st[s::EXCEPTIONS].invalid(format!("exception at corner {c}, which has no prediction")));
+                }
+                continue;
+            }
+            if next_exc == Some(c as u64) {
+                let r = &mut st[s::EXCEPTIONS];
+                let v = r.varint_max(nv.saturating_sub(1) as u64, "exception vertex")?;
+                if nv == 0 {
+                    return Err(r.invalid("exception in a level without vertices"));
+                }
+                indices[c] = v as u32;
+                pos[c] = NO_POS;
+                exc_left -= 1;
+                next_exc = if exc_left > 0 {
+                    let gap = r.varint_max(nc as u64, "exception position gap")?;
+                    Some(c as u64 + 1 + gap)
+                } else {
+                    None
+                };
+                continue;
+            }
+            let i = name_of[c] as usize;
+            let k2 = count[i];
+            if k2 == 0 {
+                return Err(st[s::CHOICES].invalid(format!("corner {c} names {} which has no vertex", pred[c])));
+            }
+            let choice = if k2 == 1 { 0 } else { st[s::CHOICES].varint_max(u64::from(k2 - 1), "choice")? as u32 };
+            indices[c] = first[i] + choice;
+        }
+        if let Some(p) = next_exc {
+            return Err(st[s::EXCEPTIONS].invalid(format!("exception position {p} is beyond the corners")));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

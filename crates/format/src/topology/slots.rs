@@ -4,6 +4,9 @@
 use octowrap_geom::cell::{SIDE_CORNER_UW, side_axis as normal_axis, side_is_positive as positive};
 pub use octowrap_geom::cell::{side_corners as slot_corners, side_plane_axes as plane_axes};
 
+use crate::bytes::{Reader, unzigzag};
+use crate::error::DecodeError;
+
 /// The deepest level whose lattice a file may name (keys then fit in 64 bits with room to spare).
 pub const MAX_LATTICE_DEPTH: u32 = 20;
 
@@ -182,6 +185,40 @@ pub fn child_slot(voxel: [u32; 3], side: u8, corner: [u32; 3], inner: bool) -> O
 pub fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
     let at = |x: u32| ((u64::from(x) << bits) >> depth) as i64;
     [at(c[0]), at(c[1]), at(c[2])]
+}
+
+/// A face's slot: its voxel and side (spec §5.3).
+pub type Slot = ([u32; 3], u8);
+
+/// Reads the raw lattice coordinates of a mode 0 or 1 level of depth `k` (spec §5.8 Raw
+/// lattice): `nf` slot keys, then `nv` corner keys, each list as zigzag deltas.
+pub fn decode_raw_lattice(
+    r: &mut Reader<'_>,
+    k: u32,
+    nf: usize,
+    nv: usize,
+) -> Result<(Vec<Slot>, Vec<[u32; 3]>), DecodeError> {
+    let mut slots = Vec::with_capacity(nf);
+    let mut key = 0i64;
+    for _ in 0..nf {
+        key = key.wrapping_add(unzigzag(r.varint()?));
+        let slot = u64::try_from(key)
+            .ok()
+            .and_then(|x| slot_from_key(x, k))
+            .ok_or_else(|| r.invalid(format!("slot key {key} outside level {k}")))?;
+        slots.push(slot);
+    }
+    let mut corners = Vec::with_capacity(nv);
+    key = 0;
+    for _ in 0..nv {
+        key = key.wrapping_add(unzigzag(r.varint()?));
+        let c = u64::try_from(key)
+            .ok()
+            .and_then(|x| corner_from_key(x, k))
+            .ok_or_else(|| r.invalid(format!("corner key {key} outside level {k}")))?;
+        corners.push(c);
+    }
+    Ok((slots, corners))
 }
 
 #[cfg(test)]
