@@ -43,24 +43,41 @@
 //! * **Prediction from the decoded parent**: the lattice point moved along the parent's normal, or
 //!   the parent's bilinear point, whichever the encoder finds smaller per level, plus 3/4 of the
 //!   mean correction already needed by decoded neighbours.
-//! * **One number per vertex on its prediction line** (spec §6.6, format version 2): the decoder
-//!   derives a line for every vertex from the decoded parent (the base prediction and the parent
-//!   face's normal); a vertex on it costs its parameter along it instead of three residuals.
+//! * **One number per vertex on its prediction line** (spec §6.6): the decoder derives a line for
+//!   every vertex from the decoded parent (the base prediction and the parent face's normal); a
+//!   vertex on it costs its parameter along it instead of three residuals.
 //!   [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines along their tangent
-//!   planes (a co-design with reconstruction, see `docs/format-notes.md`), so the file stores what
-//!   the caller holds exactly; vertices elsewhere still round-trip within half a step.
-//! * **Format version 3, for decoding speed** (spec §5.9, §6.8; [`EncodeOptions::version`]):
-//!   lattice refinements in mode 3 keep mode 2's face streams but number vertices by first use (a
-//!   key table, no sorted name set) and predict geometry in integers from the parent alone (a
-//!   fixed-point line along the parent quad's exact normal, the parameter of the parent surface's
-//!   point predicted); about 1.7 times fewer decoder instructions per vertex than version 2 at
-//!   the same size (`tools/bench/RESULTS.md`); the default since 2026-12-01 (version 2 on request).
+//!   planes, so the file stores what the caller holds exactly; vertices elsewhere still round-trip
+//!   within half a step.
+//! * **First-use numbering and integer geometry for decoding speed** (mode 3, spec §5.9, §6.8;
+//!   [`EncodeOptions::version`] 3, the default): lattice refinements keep mode 2's face streams but
+//!   number vertices by first use (a key table, no sorted name set) and predict geometry in
+//!   integers from the parent alone (a fixed-point line along the parent quad's exact normal);
+//!   about 1.7 times fewer decoder instructions per vertex than mode 2 at the same size.
 //! * **Byte planes + zstd**: residuals and symbols go to separate streams, least significant
-//!   byte planes first, one zstd frame per level. Measured against the order-0 entropy of the
-//!   residuals, zstd is within about 3 % on the bunny and dragon hierarchies, so an adaptive
-//!   entropy coder would only pay with better context modelling.
+//!   byte planes first, one zstd frame per level: zstd comes within about 3 % of the order-0
+//!   entropy of the residuals on the bunny and dragon hierarchies, so an adaptive entropy coder
+//!   pays only with better context modelling.
 //! * **Hostile input**: the container checks a header and table checksum before trusting any
-//!   offset, each level's XXH3 before decompressing it, and [`Limits`] before allocating.
+//!   offset, each level's XXH3 before decompressing it; decompression streams, the block header
+//!   first, capped at the declared size; every declared count is checked against the bytes that
+//!   must hold it and against [`Limits`] before anything is allocated for it.
+//!
+//! # Layout (the spec's sections, one module each)
+//! * `container` — §3 File structure: header, level table, metadata, preamble checksum.
+//! * `block` — §4 Level block: block header, streams, the counts the streams can hold.
+//! * `topology` — §5 Topology: `base` (mode 0, §5.1), `generic` (mode 1, §5.4), `lattice`
+//!   (mode 2, §5.3), `first_use` (mode 3, §5.9), `names` (§5.5, §5.6), `slots` (lattice keys,
+//!   §5.3, §5.8).
+//! * `geometry` — §6 Geometry: `predict` (modes 0-2, §6.2-§6.7), `fixed` (mode 3, §6.8),
+//!   `residuals` (the stream, §6.1).
+//! * `decoder`, `encoder` — §7 and §8: whole files, level after level; `level_decode` and
+//!   `level_encode` take one level block through §4-§6 in order. The encoder of a level writes all
+//!   streams of its mode in one pass over its faces (the modes share its canonical ordering of
+//!   §5.7), so it stays one module beside the decoder's per-mode files.
+//! * `bytes` — §1 Conventions: varints, zigzag, byte planes, the bounds-checked reader.
+//! * `limits`, `error` — §7.2 Limits and §7.3 Errors.
+//! * `placement` — §8 advice: moving vertices onto their prediction lines.
 
 mod block;
 mod bytes;

@@ -1,9 +1,15 @@
 //! Decoder limits (spec §7.2 Limits): upper bounds on what a file may claim, checked before
 //! allocating for it.
 
-/// Upper bounds a decoder checks before allocating. Defaults suit meshes of up to ~250 M vertices;
-/// decoding takes a few hundred bytes of memory per vertex of the largest level (about 250 measured
-/// on a lattice hierarchy: working arrays and the returned hierarchy), so lower `max_vertices` (or
+/// Upper bounds a decoder checks before allocating; one struct for every entry point
+/// ([`crate::decode`], [`crate::read_info`], [`crate::read_path`] through [`crate::DecodeOptions`]).
+///
+/// Every declared count is first checked against what the file's bytes can hold (a face, a
+/// corner, a listed vertex each take at least one byte of some stream; spec §4.1), then against
+/// these limits. What costs no bytes (vertices whose residuals are all zero, a zstd frame of one
+/// repeated byte) is bounded by these limits alone, so they bound the memory a file can claim:
+/// decoding takes about 250 bytes per vertex of the largest level (working arrays and the
+/// returned hierarchy). The defaults (below) suit meshes of up to ~250 M vertices; lower them (or
 /// use [`Limits::strict`]) for untrusted input on small machines.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]

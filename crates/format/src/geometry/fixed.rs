@@ -1,11 +1,9 @@
-//! Format version 3's lattice refinement, level mode 3 (spec §5.9, §6.8): the topology and
-//! geometry of mode 2 redesigned for decoding speed.
-//!
-//! Why: a version 2 lattice level costs its decoder about 2,000 instructions per vertex (see
-//! `tools/bench/RESULTS.md`), mostly for rules of the format itself: ranking every corner's
-//! predicted name among the sorted names of the level (§5.5), binary64 predictors (§6.3, §6.6) and
-//! averaged biases of all neighbours (§6.2). Mode 3 keeps mode 2's face streams (child masks,
-//! depth bits, created-face keys, rotation bytes: the same bits) and changes the rest:
+//! Geometry of mode 3 (spec §6.8 Geometry of mode 3): integer prediction from the decoded parent
+//! alone, for decoding speed. A version 2 lattice level spends most of its decoder's work on rules
+//! of the format itself: ranking every corner's predicted name among the sorted names of the level
+//! (§5.5), binary64 predictors (§6.3, §6.6) and averaged biases of all neighbours (§6.2). Mode 3
+//! keeps mode 2's face streams (child masks, depth bits, created-face keys, rotation bytes: the same
+//! bits) and changes the rest:
 //!
 //! * **Vertices are numbered by first use** in corner order. A corner's predicted lattice key finds
 //!   its vertex in a per-level open-addressing table (a lookup, no sort, no ranking); keys with
