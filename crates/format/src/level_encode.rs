@@ -10,7 +10,7 @@ use crate::geometry::predict::{GeometryScratch, Topo, geometry_pass};
 use crate::geometry::residuals::put_grid_streams;
 use crate::level_decode::PlainLevel;
 use crate::topology::slots::{self as lattice, MAX_LATTICE_DEPTH};
-use crate::topology::{NO_PARENT, NO_POS, Parent, best_rotation, number_edges, rotated};
+use crate::topology::{NO_PARENT, NO_POS, Parent, base, best_rotation, first_use, names, number_edges, rotated};
 
 /// One input level on plain arrays, parents already numbered in the parent's canonical order.
 pub struct InputLevel<'a> {
@@ -59,10 +59,12 @@ pub struct Encoded {
     pub parent_quads: Vec<([u32; 4], u8)>,
 }
 
-struct Streams([Vec<u8>; STREAM_COUNT]);
+/// The twelve streams of a level block being written (spec §4.2).
+pub struct Streams(pub [Vec<u8>; STREAM_COUNT]);
 
 impl Streams {
-    fn new() -> Self {
+    /// Twelve empty streams.
+    pub fn new() -> Self {
         Self(std::array::from_fn(|_| Vec::new()))
     }
 }
@@ -72,8 +74,9 @@ fn face(offsets: &[u32], indices: &[u32], f: usize) -> std::ops::Range<usize> {
     offsets[f] as usize..offsets[f + 1] as usize
 }
 
-/// Encodes level `k` (`parent` is the canonical level `k - 1`, `None` for level 0).
-#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // mirrors decode_level step by step
+/// Encodes level `k` (`parent` is the canonical level `k - 1`, `None` for level 0): the mode
+/// (§4.1), the canonical face order (§5.7), every corner's prediction, the names, splits and
+/// corners of the mode (§5.5, §5.6, §5.9), the face streams (§5.3, §5.4), then the geometry (§6).
 pub fn encode_level(
     k: u32,
     input: &InputLevel<'_>,
@@ -83,8 +86,47 @@ pub fn encode_level(
     bits: u32,
     version: u16,
 ) -> Result<Encoded, EncodeError> {
-    let nf = input.parents.len();
     let nv = input.q.len().max(input.exact.len());
+    let has_lattice = has_valid_lattice(k, input)?;
+    let Some(parent) = parent else {
+        return Ok(base::encode(k, input, has_lattice, (bits, exact)));
+    };
+    let mut st = Streams::new();
+    let pp = parent.as_parent();
+    let lattice_plan =
+        if has_lattice && (exact || tied) && parent.slots.is_some() { plan_lattice(input, &pp) } else { None };
+    let mode = match lattice_plan {
+        Some(_) if version >= 3 => Mode::FastLattice,
+        Some(_) => Mode::Lattice,
+        None => Mode::Generic,
+    };
+    let (order, face_new) = face_order(k, input, lattice_plan.as_ref())?;
+    let mut plan = corner_predictions(k, input, parent, &order, lattice_plan.as_ref());
+    let (indices, vorder) = if mode == Mode::FastLattice {
+        let corners = input.corners.expect("lattice");
+        first_use::encode(k, corners, (&plan.vertex, &plan.pred), &mut plan.pos, nv, &mut st)
+    } else {
+        names::encode(k, mode, nv, input.corners, &mut plan, &mut st)
+    };
+    let nsub = order.iter().filter(|&&f| input.parents[f as usize] != NO_PARENT).count();
+    let faces = FaceOrder { order: &order, nsub, vorder: &vorder, lattice_plan: lattice_plan.as_ref() };
+    let level = PlainLevel { offsets: std::mem::take(&mut plan.offsets), indices, ..PlainLevel::default() };
+    let mut level =
+        face_streams(k, mode, input, &pp, &faces, has_lattice, level, std::mem::take(&mut plan.rotations), &mut st);
+    level.q = if input.q.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.q[v as usize]).collect() };
+    level.exact =
+        if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
+    let (predictor, line_shift, quads) =
+        choose_geometry(k, mode, (bits, exact), &level, parent, &plan.pos, input.topology_only, &mut st);
+    let mut e = finish(st, (mode, predictor, line_shift), has_lattice, level, face_new, vorder);
+    e.pos = plan.pos;
+    e.parent_quads = quads;
+    Ok(e)
+}
+
+/// Whether level `k` carries lattice coordinates the format can hold (depth at most 20); fails
+/// when they lie outside `[0, 2^k]`.
+fn has_valid_lattice(k: u32, input: &InputLevel<'_>) -> Result<bool, EncodeError> {
     let has_lattice = input.slots.is_some() && input.corners.is_some() && k <= MAX_LATTICE_DEPTH;
     if has_lattice {
         let (slots, corners) = (input.slots.expect("has"), input.corners.expect("has"));
@@ -97,51 +139,21 @@ pub fn encode_level(
             });
         }
     }
-    let mut st = Streams::new();
-    let Some(parent) = parent else {
-        // Base mode: order kept as given.
-        let mut level = PlainLevel {
-            offsets: input.offsets.to_vec(),
-            indices: input.indices.to_vec(),
-            parents: vec![NO_PARENT; nf],
-            quadrants: vec![0; nf],
-            ..PlainLevel::default()
-        };
-        for w in input.offsets.windows(2) {
-            put_varint(&mut st.0[s::FACE_SIZES], u64::from(w[1] - w[0] - 3));
-        }
-        let mut prev = 0i64;
-        for &i in input.indices {
-            put_varint(&mut st.0[s::CORNERS], zigzag(i64::from(i) - prev));
-            prev = i64::from(i);
-        }
-        if has_lattice {
-            level.slots = input.slots.map(<[_]>::to_vec);
-            level.corners = input.corners.map(<[_]>::to_vec);
-            raw_lattice(&mut st, &level, k);
-        }
-        level.q.clone_from(&input.q);
-        level.exact.clone_from(&input.exact);
-        let pos = vec![NO_POS; input.indices.len()];
-        st.0[s::GEOMETRY] = geometry(&level, Mode::Base, k, bits, exact, None, &pos, &[], (0, 0)).0;
-        let mut e =
-            finish(st, (Mode::Base, 0, 0), has_lattice, level, (0..nf as u32).collect(), (0..nv as u32).collect());
-        e.pos = pos;
-        return Ok(e);
-    };
-    let pp = parent.as_parent();
-    let lattice_plan =
-        if has_lattice && (exact || tied) && parent.slots.is_some() { plan_lattice(input, &pp) } else { None };
-    let mode = match lattice_plan {
-        Some(_) if version >= 3 => Mode::FastLattice,
-        Some(_) => Mode::Lattice,
-        None => Mode::Generic,
-    };
+    Ok(has_lattice)
+}
 
+/// The canonical face order (§5.7): subfaces by (parent, quadrant), then created faces (by slot
+/// key in lattice levels); as `order[new] = old` and `face_new[old] = new`. Subfaces must be quads.
+fn face_order(
+    k: u32,
+    input: &InputLevel<'_>,
+    lattice_plan: Option<&LatticePlan>,
+) -> Result<(Vec<u32>, Vec<u32>), EncodeError> {
+    let nf = input.parents.len();
     // Face order (§5.7): subfaces by (parent, quadrant), then created faces.
     let mut order: Vec<u32> = (0..nf as u32).collect();
     let created_key = |f: usize| -> u64 {
-        match &lattice_plan {
+        match lattice_plan {
             Some(pl) => pl.keys[f],
             None => f as u64,
         }
@@ -171,6 +183,37 @@ pub fn encode_level(
         }
     }
 
+    Ok((order, face_new))
+}
+
+/// Per corner of the level in canonical face order: its input vertex, predicted name (lattice
+/// key, or subdivision name; `u64::MAX` for explicit corners), canonical position, and per face
+/// its rotation byte (§5.2-§5.4).
+pub struct CornerPlan {
+    /// Per corner: its input vertex.
+    pub vertex: Vec<u32>,
+    /// Per corner: its predicted name, or `u64::MAX`.
+    pub pred: Vec<u64>,
+    /// Per corner: its canonical position, or `NO_POS`.
+    pub pos: Vec<u8>,
+    /// Face offsets in canonical order.
+    pub offsets: Vec<u32>,
+    /// Per subface (and lattice face): its rotation byte.
+    pub rotations: Vec<u8>,
+    /// The first name after the canonical subdivision's (mode 1's names for unpredicted vertices).
+    pub name_base_free: u64,
+}
+
+#[allow(clippy::needless_range_loop)] // corners by index: vertex, prediction and position together
+fn corner_predictions(
+    k: u32,
+    input: &InputLevel<'_>,
+    parent: &PlainLevel,
+    order: &[u32],
+    lattice_plan: Option<&LatticePlan>,
+) -> CornerPlan {
+    let nf = input.parents.len();
+    let pp = parent.as_parent();
     // Per (new-order) corner: input vertex, predicted name, canonical position.
     let mut corner_vertex = Vec::with_capacity(input.indices.len());
     let mut pred = Vec::with_capacity(input.indices.len());
@@ -181,12 +224,12 @@ pub fn encode_level(
     let (edge_of_corner, ne) = number_edges(pp.offsets, pp.indices);
     let pv = parent.q.len().max(parent.exact.len()) as u64;
     let name_base_free = pv + u64::from(ne) + pp.face_count() as u64;
-    for &f in &order {
+    for &f in order {
         let f = f as usize;
         let r = face(input.offsets, input.indices, f);
         let verts = &input.indices[r];
         let is_sub = input.parents[f] != NO_PARENT;
-        if let Some(pl) = &lattice_plan {
+        if let Some(pl) = lattice_plan {
             let (v, d) = pl.slots[f];
             let sc = lattice::slot_corners(v, d);
             let corners = input.corners.expect("lattice");
@@ -228,122 +271,41 @@ pub fn encode_level(
         offsets.push(corner_vertex.len() as u32);
     }
 
-    let (indices, vorder) = if mode == Mode::FastLattice {
-        fast_names(k, input.corners.expect("lattice"), &corner_vertex, &pred, &mut pos, nv, &mut st)
-    } else {
-        // Vertex names (§5.5) and canonical vertex order (§5.7).
-        let mut vname = vec![u64::MAX; nv];
-        let mut first_seen = vec![u64::MAX; nv];
-        if let Some(corners) = input.corners.filter(|_| mode == Mode::Lattice) {
-            for v in 0..nv {
-                vname[v] = lattice::corner_key(corners[v], k);
-            }
-        }
-        for (c, &v) in corner_vertex.iter().enumerate() {
-            let v = v as usize;
-            if first_seen[v] == u64::MAX {
-                first_seen[v] = c as u64;
-            }
-            if mode == Mode::Generic && vname[v] == u64::MAX && pred[c] != u64::MAX {
-                vname[v] = pred[c];
-            }
-        }
-        if mode == Mode::Generic {
-            let mut next = name_base_free;
-            for &v in &corner_vertex {
-                if vname[v as usize] == u64::MAX {
-                    vname[v as usize] = next;
-                    next += 1;
-                }
-            }
-            for n in &mut vname {
-                if *n == u64::MAX {
-                    *n = next;
-                    next += 1;
-                }
-            }
-        }
-        let mut vorder: Vec<u32> = (0..nv as u32).collect();
-        vorder.sort_by_key(|&v| (vname[v as usize], first_seen[v as usize], v));
-        let mut vnew = vec![0u32; nv];
-        for (new, &old) in vorder.iter().enumerate() {
-            vnew[old as usize] = new as u32;
-        }
-        let mut predicted: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
-        predicted.sort_unstable();
-        predicted.dedup();
-        // The name set (predicted names and the vertices' names), each with its first vertex and count.
-        let mut names: Vec<(u64, u32, u32)> = Vec::with_capacity(predicted.len() + 16);
-        {
-            let mut vi = 0usize;
-            let mut pi = 0usize;
-            loop {
-                let vn = vorder.get(vi).map(|&v| vname[v as usize]);
-                let pn = predicted.get(pi).copied();
-                let nm = match (vn, pn) {
-                    (None, None) => break,
-                    (Some(a), Some(b)) => a.min(b),
-                    (Some(a), None) => a,
-                    (None, Some(b)) => b,
-                };
-                let first = vi as u32;
-                while vi < vorder.len() && vname[vorder[vi] as usize] == nm {
-                    vi += 1;
-                }
-                if pn == Some(nm) {
-                    pi += 1;
-                }
-                names.push((nm, first, vi as u32 - first));
-            }
-        }
-        let extras: Vec<u64> = names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
-        put_varint(&mut st.0[s::EXTRA_NAMES], extras.len() as u64);
-        for (i, &n) in extras.iter().enumerate() {
-            put_varint(&mut st.0[s::EXTRA_NAMES], if i == 0 { n } else { n - extras[i - 1] - 1 });
-        }
-        let splits: Vec<(usize, u32)> =
-            names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
-        put_varint(&mut st.0[s::SPLITS], splits.len() as u64);
-        for (j, &(i, count)) in splits.iter().enumerate() {
-            put_varint(&mut st.0[s::SPLITS], if j == 0 { i as u64 } else { (i - splits[j - 1].0 - 1) as u64 });
-            put_varint(&mut st.0[s::SPLITS], u64::from(count));
-        }
-        // Corners (§5.6).
-        let mut indices = Vec::with_capacity(corner_vertex.len());
-        let mut exceptions: Vec<(usize, u32)> = Vec::new();
-        let mut prev_explicit = 0i64;
-        for (c, &v) in corner_vertex.iter().enumerate() {
-            let nvx = vnew[v as usize];
-            indices.push(nvx);
-            if pred[c] == u64::MAX {
-                put_varint(&mut st.0[s::CORNERS], zigzag(i64::from(nvx) - prev_explicit));
-                prev_explicit = i64::from(nvx);
-                continue;
-            }
-            if vname[v as usize] != pred[c] {
-                exceptions.push((c, nvx));
-                pos[c] = NO_POS;
-                continue;
-            }
-            let i = names.binary_search_by_key(&pred[c], |n| n.0).expect("name present");
-            if names[i].2 > 1 {
-                put_varint(&mut st.0[s::CHOICES], u64::from(nvx - names[i].1));
-            }
-        }
-        put_varint(&mut st.0[s::EXCEPTIONS], exceptions.len() as u64);
-        for (j, &(c, v)) in exceptions.iter().enumerate() {
-            put_varint(&mut st.0[s::EXCEPTIONS], if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
-            put_varint(&mut st.0[s::EXCEPTIONS], u64::from(v));
-        }
-        (indices, vorder)
-    };
+    CornerPlan { vertex: corner_vertex, pred, pos, offsets, rotations, name_base_free }
+}
 
+/// The canonical orders of a refinement level's faces and vertices.
+struct FaceOrder<'a> {
+    /// `order[new] = old` for faces.
+    order: &'a [u32],
+    /// Number of subfaces (they come first).
+    nsub: usize,
+    /// `vorder[new] = old` for vertices.
+    vorder: &'a [u32],
+    /// The lattice plan of a mode 2 or 3 level.
+    lattice_plan: Option<&'a LatticePlan>,
+}
+
+/// The face streams (§5.3, §5.4): child masks, then for lattice levels depth bits and created-face
+/// keys, for generic levels the created faces' sizes; rotations; the level's per-face arrays and
+/// lattice coordinates in canonical order (raw lattice for a generic level that has them).
+#[allow(clippy::too_many_arguments)]
+fn face_streams(
+    k: u32,
+    mode: Mode,
+    input: &InputLevel<'_>,
+    pp: &Parent<'_>,
+    faces: &FaceOrder<'_>,
+    has_lattice: bool,
+    mut level: PlainLevel,
+    rotations: Vec<u8>,
+    st: &mut Streams,
+) -> PlainLevel {
+    let FaceOrder { order, nsub, vorder, lattice_plan } = *faces;
     // Face structure streams (§5.3, §5.4).
-    let mut level = PlainLevel { offsets, indices, ..PlainLevel::default() };
     level.parents = order.iter().map(|&f| input.parents[f as usize]).collect();
     level.quadrants = order.iter().map(|&f| input.quadrants[f as usize]).collect();
     let mut sub_iter = level.parents.iter().zip(&level.quadrants).peekable();
-    let nsub = level.parents.iter().filter(|&&p| p != NO_PARENT).count();
     for pf in 0..pp.face_count() {
         let n = pp.face(pf).len();
         let mut mask = vec![0u8; n.div_ceil(8)];
@@ -359,7 +321,7 @@ pub fn encode_level(
         }
         st.0[s::CHILD_MASKS].extend(mask);
     }
-    if let Some(pl) = &lattice_plan {
+    if let Some(pl) = lattice_plan {
         let mut byte = 0u8;
         for (i, &f) in order.iter().take(nsub).enumerate() {
             byte |= u8::from(pl.inner[f as usize]) << (i % 8);
@@ -390,17 +352,32 @@ pub fn encode_level(
         if has_lattice {
             level.slots = input.slots.map(|sl| order.iter().map(|&f| sl[f as usize]).collect());
             level.corners = input.corners.map(|c| vorder.iter().map(|&v| c[v as usize]).collect());
-            raw_lattice(&mut st, &level, k);
+            raw_lattice(st, &level, k);
         }
     }
-    level.q = if input.q.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.q[v as usize]).collect() };
-    level.exact =
-        if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
+    level
+}
+
+/// The geometry stream (§6) of a refinement level: the predictor (§6.3), layout and line spacing
+/// (§6.6) that compress best. Returns the block's `predictor` byte, its `line_shift`, and the
+/// parent's canonical quads (lattice levels).
+#[allow(clippy::too_many_arguments)]
+fn choose_geometry(
+    k: u32,
+    mode: Mode,
+    (bits, exact): (u32, bool),
+    level: &PlainLevel,
+    parent: &PlainLevel,
+    pos: &[u8],
+    topology_only: bool,
+    st: &mut Streams,
+) -> (u8, u32, Vec<([u32; 4], u8)>) {
+    let pp = parent.as_parent();
     let quads = if mode.is_lattice() { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
     let mut line_shift = 0u32;
-    if !input.topology_only {
-        st.0[s::GEOMETRY] = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (0, 0)).0;
+    if !topology_only {
+        st.0[s::GEOMETRY] = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (0, 0)).0;
         if !exact {
             // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
             let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
@@ -414,28 +391,25 @@ pub fn encode_level(
                 }
             };
             if mode.is_lattice() {
-                consider(geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (1, 0)).0, (1, 0), &mut st);
+                consider(geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (1, 0)).0, (1, 0), st);
             }
             let line_predictors: &[u8] = if mode.is_lattice() { &[0, 1] } else { &[0] };
             for &p in line_predictors {
                 let variant = p | PREDICTOR_LINES;
-                let (bytes, js) = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, 0));
-                consider(bytes, (variant, 0), &mut st);
+                let (bytes, js) = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, 0));
+                consider(bytes, (variant, 0), st);
                 let shift = common_shift(&js);
                 if shift > 0 {
-                    let bytes = geometry(&level, mode, k, bits, exact, Some(parent), &pos, &quads, (variant, shift)).0;
-                    consider(bytes, (variant, shift), &mut st);
+                    let bytes = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, shift)).0;
+                    consider(bytes, (variant, shift), st);
                 }
             }
         }
     }
-    let mut e = finish(st, (mode, predictor, line_shift), has_lattice, level, face_new, vorder);
-    e.pos = pos;
-    e.parent_quads = quads;
-    Ok(e)
+    (predictor, line_shift, quads)
 }
 
-fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
+pub fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
     let r = &mut st.0[s::RAW_LATTICE];
     let mut prev = 0i64;
     for &(v, d) in level.slots.as_deref().unwrap_or_default() {
@@ -453,7 +427,7 @@ fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
 
 /// The geometry stream (§6.1) of a level under the given predictor.
 #[allow(clippy::too_many_arguments)]
-fn geometry(
+pub fn geometry(
     level: &PlainLevel,
     mode: Mode,
     k: u32,
@@ -573,89 +547,6 @@ fn fast_geometry(
     (g, js)
 }
 
-/// Mode 3's vertex numbering (spec §5.9): vertices by first use in corner order, the split keys,
-/// exceptions and choices, and the vertices no corner uses. Returns the corners' new vertex
-/// indices and the input index of every new vertex.
-fn fast_names(
-    k: u32,
-    corners: &[[u32; 3]],
-    corner_vertex: &[u32],
-    pred: &[u64],
-    pos: &mut [u8],
-    nv: usize,
-    st: &mut Streams,
-) -> (Vec<u32>, Vec<u32>) {
-    let vkey: Vec<u64> = corners.iter().map(|&c| lattice::corner_key(c, k)).collect();
-    let mut used = vec![false; nv];
-    for &v in corner_vertex {
-        used[v as usize] = true;
-    }
-    // Keys of two or more vertices that corners use are split keys.
-    let mut keyed: Vec<u64> = (0..nv).filter(|&v| used[v]).map(|v| vkey[v]).collect();
-    keyed.sort_unstable();
-    let mut split_keys: Vec<u64> = keyed.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
-    split_keys.dedup();
-    put_varint(&mut st.0[s::SPLITS], split_keys.len() as u64);
-    for (i, &key) in split_keys.iter().enumerate() {
-        put_varint(&mut st.0[s::SPLITS], if i == 0 { key } else { key - split_keys[i - 1] - 1 });
-    }
-    let mut lists: std::collections::BTreeMap<u64, Vec<u32>> =
-        split_keys.iter().map(|&key| (key, Vec::new())).collect();
-    let mut vnew = vec![u32::MAX; nv];
-    let mut vorder: Vec<u32> = Vec::with_capacity(nv);
-    let mut indices = Vec::with_capacity(corner_vertex.len());
-    let mut exceptions: Vec<(usize, u32, Option<i64>)> = Vec::new();
-    for (c, &v) in corner_vertex.iter().enumerate() {
-        let vi = v as usize;
-        let new = vnew[vi] == u32::MAX;
-        if new {
-            vnew[vi] = vorder.len() as u32;
-            vorder.push(v);
-        }
-        let x = vnew[vi];
-        indices.push(x);
-        if vkey[vi] != pred[c] {
-            exceptions.push((c, x, new.then(|| vkey[vi] as i64 - pred[c] as i64)));
-            pos[c] = NO_POS;
-            if new {
-                if let Some(l) = lists.get_mut(&vkey[vi]) {
-                    l.push(x);
-                }
-            }
-            continue;
-        }
-        if let Some(l) = lists.get_mut(&pred[c]) {
-            let o = l.iter().position(|&y| y == x).unwrap_or_else(|| {
-                l.push(x);
-                l.len() - 1
-            });
-            put_varint(&mut st.0[s::CHOICES], o as u64);
-        }
-    }
-    let e = &mut st.0[s::EXCEPTIONS];
-    put_varint(e, exceptions.len() as u64);
-    for (j, &(c, x, key)) in exceptions.iter().enumerate() {
-        put_varint(e, if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
-        put_varint(e, u64::from(x));
-        if let Some(d) = key {
-            put_varint(e, zigzag(d));
-        }
-    }
-    // Vertices no corner uses, by key.
-    let mut extras: Vec<u32> = (0..nv as u32).filter(|&v| !used[v as usize]).collect();
-    extras.sort_by_key(|&v| (vkey[v as usize], v));
-    let r = &mut st.0[s::EXTRA_NAMES];
-    put_varint(r, extras.len() as u64);
-    let mut prev = 0i64;
-    for &v in &extras {
-        let key = vkey[v as usize] as i64;
-        put_varint(r, zigzag(key - prev));
-        prev = key;
-        vorder.push(v);
-    }
-    (indices, vorder)
-}
-
 /// The largest line spacing exponent (spec §6.6) that at least 15 in 16 of the nonzero line
 /// parameters `js` (found with spacing 1) are multiples of; 0 when there are none.
 fn common_shift(js: &[i64]) -> u32 {
@@ -675,7 +566,7 @@ fn common_shift(js: &[i64]) -> u32 {
     best
 }
 
-fn finish(
+pub fn finish(
     st: Streams,
     (mode, predictor, line_shift): (Mode, u8, u32),
     has_lattice: bool,

@@ -230,7 +230,6 @@ fn at_least<T: Copy + Default>(v: &mut Vec<T>, n: usize) -> &mut [T] {
     &mut v[..n]
 }
 
-#[allow(clippy::too_many_lines, clippy::needless_range_loop)] // spec §6.2-§6.6 in one place, so both directions share it
 /// Runs the geometry predictor of spec §6 over a level in the normative order and calls
 /// `step(v, prediction)` for every vertex; `step` returns the vertex's grid coordinates and, for a
 /// vertex coded on its prediction line, its line parameter (the decoder adds the residual, the
@@ -248,22 +247,41 @@ pub fn geometry_pass<E>(
     mut step: impl FnMut(usize, &Prediction) -> Result<([i64; 3], Option<i64>), E>,
 ) -> Result<(), E> {
     let nv = q.len();
-    let nf = topo.offsets.len() - 1;
-    let nc = topo.indices.len();
-    let indices = topo.indices;
-    let offsets = topo.offsets;
     let GeometryScratch { ctx, ctx_face, end, nbr, bias, faces } = scratch;
-    // Context (§6.2): the first predicted, non-exception subface corner of every vertex, and its
-    // face; in the same pass, every vertex's corner count.
     ctx.clear();
     ctx.resize(nv, NONE);
     let ctx_face = at_least(ctx_face, nv);
     end.clear();
     end.resize(nv + 1, 0);
-    let mut missing = nv;
-    for f in 0..nf {
+    let missing = contexts_and_degrees(topo, parent.is_some(), ctx, ctx_face, end);
+    let nbr = at_least(nbr, 2 * topo.indices.len());
+    neighbours(topo, end, nbr);
+    let near = Near { nbr, end };
+    if let Some(p) = parent {
+        pass_a(topo, p, q, (ctx, ctx_face), &near, (bias, faces), &mut step)?;
+    }
+    if missing == 0 {
+        return Ok(());
+    }
+    pass_b(topo, q, ctx, &near, &mut step)
+}
+
+/// The context of every vertex (§6.2): its first predicted, non-exception subface corner, and that
+/// corner's face; in the same pass, every vertex's corner count (into `end[v + 1]`). Returns the
+/// number of vertices without a context.
+#[allow(clippy::needless_range_loop)] // corners by index: the context is a corner index
+fn contexts_and_degrees(
+    topo: &Topo<'_>,
+    has_parent: bool,
+    ctx: &mut [u32],
+    ctx_face: &mut [u32],
+    end: &mut [u32],
+) -> usize {
+    let (offsets, indices) = (topo.offsets, topo.indices);
+    let mut missing = ctx.len();
+    for f in 0..offsets.len() - 1 {
         let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
-        if parent.is_some() && topo.parents[f] != NO_PARENT {
+        if has_parent && topo.parents[f] != NO_PARENT {
             for c in a..b {
                 let v = indices[c] as usize;
                 end[v + 1] += 1;
@@ -279,15 +297,19 @@ pub fn geometry_pass<E>(
             }
         }
     }
-    // Neighbours: `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next vertex of the `j`-th
-    // incident corner; vertex v's corners are `j` in `begin(v) .. end[v]`, in corner order.
-    for i in 0..nv {
+    missing
+}
+
+/// Every vertex's neighbours (§6.5): `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next vertex of
+/// the `j`-th incident corner; vertex v's corners are `j` in `end[v - 1] .. end[v]` afterwards, in
+/// corner order (`end` holds the corner counts on entry).
+fn neighbours(topo: &Topo<'_>, end: &mut [u32], nbr: &mut [u32]) {
+    let (offsets, indices) = (topo.offsets, topo.indices);
+    for i in 0..end.len() - 1 {
         end[i + 1] += end[i];
     }
-    let nbr = at_least(nbr, 2 * nc);
-    for f in 0..nf {
-        let (a, b) = (offsets[f] as usize, offsets[f + 1] as usize);
-        let face = &indices[a..b];
+    for f in 0..offsets.len() - 1 {
+        let face = &indices[offsets[f] as usize..offsets[f + 1] as usize];
         let n = face.len();
         if let &[v0, v1, v2, v3] = face {
             // Quads, the common case, unrolled.
@@ -300,130 +322,179 @@ pub fn geometry_pass<E>(
             continue;
         }
         let mut prev = face[n - 1];
-        for i in 0..n {
-            let v = face[i] as usize;
+        for (i, &v) in face.iter().enumerate() {
             let next = face[if i + 1 == n { 0 } else { i + 1 }];
-            let j = end[v] as usize;
-            end[v] += 1;
+            let j = end[v as usize] as usize;
+            end[v as usize] += 1;
             nbr[2 * j] = prev;
             nbr[2 * j + 1] = next;
-            prev = v as u32;
+            prev = v;
         }
     }
-    // `end[v]` is now the end of v's corners and `end[v - 1]` their beginning.
-    let range = |v: usize| (if v == 0 { 0 } else { end[v - 1] as usize } * 2)..(end[v] as usize * 2);
-    if let Some(p) = parent {
-        // Pass A: vertices with a parent context, in index order. `bias` stays zero for vertices
-        // not decoded yet and for vertices without a context, so the sums below need no test.
-        bias.clear();
-        bias.resize(nv, [0; 8]);
-        let lattice_mode = topo.mode == Mode::Lattice;
-        let lines = topo.lines;
-        let want_normal = lines || (lattice_mode && topo.predictor == PREDICTOR_NORMAL);
-        let pnf = p.face_count();
-        let quads = topo.parent_quads.unwrap_or(&[]);
-        faces.clear();
-        if want_normal {
-            faces.reserve(pnf);
-            if lattice_mode {
-                let quads = topo.parent_quads.expect("lattice mode has parent quads");
-                faces.extend(quads.iter().map(|&(quad, _)| FaceNormal::new(quad_normal(p.q, quad), topo.line_shift)));
-            } else {
-                faces.extend((0..pnf).map(|pf| FaceNormal::new(newell_normal(p.q, p.face(pf)), topo.line_shift)));
+}
+
+/// The neighbour lists of [`neighbours`].
+struct Near<'a> {
+    nbr: &'a [u32],
+    end: &'a [u32],
+}
+
+impl Near<'_> {
+    /// The previous and next vertices of `v`'s corners, in pairs.
+    #[inline]
+    fn of(&self, v: usize) -> &[u32] {
+        let begin = if v == 0 { 0 } else { self.end[v - 1] as usize };
+        &self.nbr[2 * begin..2 * self.end[v] as usize]
+    }
+}
+
+/// Pass A (§6.2): every vertex with a parent context, in index order, predicted from the parent
+/// (§6.3 lattice, §6.4 subdivision) plus the local bias of its decoded neighbours, with its line
+/// (§6.6). `bias` stays zero for vertices not decoded yet and for vertices without a context, so
+/// the sums need no test.
+fn pass_a<E>(
+    topo: &Topo<'_>,
+    p: &Parent<'_>,
+    q: &mut [[i64; 3]],
+    (ctx, ctx_face): (&[u32], &[u32]),
+    near: &Near<'_>,
+    (bias, faces): (&mut Vec<[i32; 8]>, &mut Vec<FaceNormal>),
+    step: &mut impl FnMut(usize, &Prediction) -> Result<([i64; 3], Option<i64>), E>,
+) -> Result<(), E> {
+    let nv = q.len();
+    bias.clear();
+    bias.resize(nv, [0; 8]);
+    let lattice_mode = topo.mode == Mode::Lattice;
+    let lines = topo.lines;
+    let want_normal = lines || (lattice_mode && topo.predictor == PREDICTOR_NORMAL);
+    let quads = topo.parent_quads.unwrap_or(&[]);
+    faces.clear();
+    if want_normal {
+        parent_normals(topo, p, faces);
+    }
+    // A bound on the magnitude of any bias or parameter so far: sums of few small terms run
+    // in 32 bits.
+    let mut max_abs = 1i64;
+    for v in 0..nv {
+        let c = ctx[v];
+        if c == NONE {
+            continue;
+        }
+        let f = ctx_face[v] as usize;
+        let pf = topo.parents[f] as usize;
+        let fnorm = if want_normal { &faces[pf] } else { &NO_NORMAL };
+        let pred = if lattice_mode {
+            let slots = p.slots.expect("lattice parent");
+            let corners = topo.vertex_corners.expect("lattice level");
+            lattice_pred(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, fnorm)
+        } else {
+            subdivision_pred(p, pf, usize::from(topo.quadrants[f]), topo.corner_pos[c as usize])
+        };
+        // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
+        let base = clamp(pred);
+        let sum = bias_sum(near.of(v), bias, max_abs);
+        let (line, param) = if lines {
+            let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
+            (Some(Line { base, u: fnorm.u }), jp)
+        } else {
+            (None, 0)
+        };
+        let pr = Prediction { line, param, base, bias_sum: [sum[0], sum[1], sum[2]], bias_count: sum[3] };
+        let (qv, j) = step(v, &pr)?;
+        q[v] = qv;
+        let (jv, on) = j.map_or((0, 0), |j| (j, 1));
+        let b = [qv[0] - base[0], qv[1] - base[1], qv[2] - base[2]];
+        // An upper bound of the largest magnitude (at most twice it): ORs, no compares.
+        max_abs |= (b[0] ^ b[0] >> 63) | (b[1] ^ b[1] >> 63) | (b[2] ^ b[2] >> 63) | (jv ^ jv >> 63);
+        bias[v] = [b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0];
+    }
+    Ok(())
+}
+
+/// The normal and line direction of every parent face (§6.3, §6.6): of its canonical quad in
+/// lattice mode, Newell's otherwise.
+fn parent_normals(topo: &Topo<'_>, p: &Parent<'_>, faces: &mut Vec<FaceNormal>) {
+    faces.reserve(p.face_count());
+    if topo.mode == Mode::Lattice {
+        let quads = topo.parent_quads.expect("lattice mode has parent quads");
+        faces.extend(quads.iter().map(|&(quad, _)| FaceNormal::new(quad_normal(p.q, quad), topo.line_shift)));
+    } else {
+        faces.extend((0..p.face_count()).map(|pf| FaceNormal::new(newell_normal(p.q, p.face(pf)), topo.line_shift)));
+    }
+}
+
+/// The subdivision predictor (§6.4) of a corner at canonical position `cp` of quadrant `qd` of
+/// parent face `pf`: the parent vertex, edge midpoint or face centroid.
+#[inline]
+fn subdivision_pred(p: &Parent<'_>, pf: usize, qd: usize, cp: u8) -> [i64; 3] {
+    let face = p.face(pf);
+    let n = face.len();
+    let at = |i: usize| p.q[face[i % n] as usize];
+    let two = |x: [i64; 3], y: [i64; 3]| map3([0, 1, 2], |a| round_div(x[a] + y[a], 2));
+    match cp {
+        0 => at(qd),
+        1 => two(at(qd), at(qd + 1)),
+        2 => {
+            let mut sum = [0i64; 3];
+            for &u in face {
+                for (s, x) in sum.iter_mut().zip(p.q[u as usize]) {
+                    *s += x;
+                }
+            }
+            map3(sum, |s| round_div(s, n as i64))
+        }
+        _ => two(at(qd + n - 1), at(qd)),
+    }
+}
+
+/// The sums of the first six `bias` entries of the neighbours `near` (§6.2): in 32 bits when
+/// `max_abs` bounds every term so that no partial sum can leave them, else in 64 bits, saturating
+/// only when even that could overflow.
+#[inline]
+#[allow(clippy::needless_range_loop)] // eight lanes at once
+fn bias_sum(near: &[u32], bias: &[[i32; 8]], max_abs: i64) -> [i64; 6] {
+    if (near.len() as i64).saturating_mul(max_abs) < 1 << 30 {
+        // Every term is below `max_abs + 1 <= 2 max_abs` in magnitude: no partial sum can
+        // leave 32 bits.
+        let mut acc = [0i32; 8];
+        for &u in near {
+            let b = &bias[u as usize];
+            for k in 0..8 {
+                acc[k] += b[k];
             }
         }
-        // A bound on the magnitude of any bias or parameter so far: sums of few small terms run
-        // in 32 bits.
-        let mut max_abs = 1i64;
-        for v in 0..nv {
-            let c = ctx[v];
-            if c == NONE {
-                continue;
+        map6(|k| i64::from(acc[k]))
+    } else if near.len() < 1 << 30 {
+        // At most 2^30 terms of magnitude at most 2^30: no sum can saturate.
+        let mut acc = [0i64; 6];
+        for &u in near {
+            let b = &bias[u as usize];
+            for k in 0..6 {
+                acc[k] += i64::from(b[k]);
             }
-            let f = ctx_face[v] as usize;
-            let pf = topo.parents[f] as usize;
-            let fnorm = if want_normal { &faces[pf] } else { &NO_NORMAL };
-            let pred = if lattice_mode {
-                let slots = p.slots.expect("lattice parent");
-                let corners = topo.vertex_corners.expect("lattice level");
-                lattice_pred(p.q, quads[pf].0, slots[pf], corners[v], topo.level, topo.bits, topo.predictor, fnorm)
-            } else {
-                let face = p.face(pf);
-                let n = face.len();
-                let qd = usize::from(topo.quadrants[f]);
-                let at = |i: usize| p.q[face[i % n] as usize];
-                let two = |x: [i64; 3], y: [i64; 3]| map3([0, 1, 2], |a| round_div(x[a] + y[a], 2));
-                match topo.corner_pos[c as usize] {
-                    0 => at(qd),
-                    1 => two(at(qd), at(qd + 1)),
-                    2 => {
-                        let mut sum = [0i64; 3];
-                        for &u in face {
-                            for a in 0..3 {
-                                sum[a] += p.q[u as usize][a];
-                            }
-                        }
-                        map3(sum, |s| round_div(s, n as i64))
-                    }
-                    _ => two(at(qd + n - 1), at(qd)),
-                }
-            };
-            // Local bias (§6.2): 3/4 of the mean correction of already decoded neighbours.
-            let base = clamp(pred);
-            // `bias[u][3]` is 1 once u is decoded in this pass: exactly the counted neighbours;
-            // `bias[u][5]` likewise for the line vertices among them.
-            let near = &nbr[range(v)];
-            let sum = if (near.len() as i64).saturating_mul(max_abs) < 1 << 30 {
-                // Every term is below `max_abs + 1 <= 2 max_abs` in magnitude: no partial sum can
-                // leave 32 bits.
-                let mut acc = [0i32; 8];
-                for &u in near {
-                    let b = &bias[u as usize];
-                    for k in 0..8 {
-                        acc[k] += b[k];
-                    }
-                }
-                map6(|k| i64::from(acc[k]))
-            } else if near.len() < 1 << 30 {
-                // At most 2^30 terms of magnitude at most 2^30: no sum can saturate.
-                let mut acc = [0i64; 6];
-                for &u in near {
-                    let b = &bias[u as usize];
-                    for k in 0..6 {
-                        acc[k] += i64::from(b[k]);
-                    }
-                }
-                acc
-            } else {
-                let mut acc = [0i64; 6];
-                for &u in near {
-                    let b = &bias[u as usize];
-                    for k in 0..6 {
-                        acc[k] = acc[k].saturating_add(i64::from(b[k]));
-                    }
-                }
-                acc
-            };
-            let (line, param) = if lines {
-                let jp = if sum[5] > 0 { round_div(sum[4].saturating_mul(3), 4 * sum[5]) } else { 0 };
-                (Some(Line { base, u: fnorm.u }), jp)
-            } else {
-                (None, 0)
-            };
-            let pr = Prediction { line, param, base, bias_sum: [sum[0], sum[1], sum[2]], bias_count: sum[3] };
-            let (qv, j) = step(v, &pr)?;
-            q[v] = qv;
-            let (jv, on) = j.map_or((0, 0), |j| (j, 1));
-            let b = [qv[0] - base[0], qv[1] - base[1], qv[2] - base[2]];
-            // An upper bound of the largest magnitude (at most twice it): ORs, no compares.
-            max_abs |= (b[0] ^ b[0] >> 63) | (b[1] ^ b[1] >> 63) | (b[2] ^ b[2] >> 63) | (jv ^ jv >> 63);
-            bias[v] = [b[0] as i32, b[1] as i32, b[2] as i32, 1, jv as i32, on, 0, 0];
         }
+        acc
+    } else {
+        let mut acc = [0i64; 6];
+        for &u in near {
+            let b = &bias[u as usize];
+            for k in 0..6 {
+                acc[k] = acc[k].saturating_add(i64::from(b[k]));
+            }
+        }
+        acc
     }
-    if missing == 0 {
-        return Ok(());
-    }
-    // Pass B: the other vertices in index order, from already decoded neighbours.
+}
+
+/// Pass B (§6.5): the vertices without a context, in index order, each predicted from its
+/// neighbours decoded so far (relative to their lattice points in lattice mode), with its line.
+fn pass_b<E>(
+    topo: &Topo<'_>,
+    q: &mut [[i64; 3]],
+    ctx: &[u32],
+    near: &Near<'_>,
+    step: &mut impl FnMut(usize, &Prediction) -> Result<([i64; 3], Option<i64>), E>,
+) -> Result<(), E> {
     let lattice_mode = topo.mode == Mode::Lattice;
     let lp = |v: usize| -> [i64; 3] {
         match topo.vertex_corners {
@@ -431,13 +502,13 @@ pub fn geometry_pass<E>(
             _ => [0; 3],
         }
     };
-    for v in 0..nv {
+    for v in 0..q.len() {
         if ctx[v] != NONE {
             continue;
         }
         let mut sum = [0i64; 3];
         let mut count = 0i64;
-        for &u in &nbr[range(v)] {
+        for &u in near.of(v) {
             let u = u as usize;
             if ctx[u] != NONE || u < v {
                 let l = lp(u);
@@ -458,9 +529,9 @@ pub fn geometry_pass<E>(
             [0; 3]
         };
         let base = clamp(pred);
-        let line = topo.lines.then(|| {
-            Line::new(base, fan_normal(&nbr[range(v)], q, base, |u| ctx[u] != NONE || u < v), topo.line_shift)
-        });
+        let line = topo
+            .lines
+            .then(|| Line::new(base, fan_normal(near.of(v), q, base, |u| ctx[u] != NONE || u < v), topo.line_shift));
         q[v] = step(v, &Prediction { line, param: 0, base, bias_sum: [0; 3], bias_count: 0 })?.0;
     }
     Ok(())

@@ -3,9 +3,11 @@
 //! keys with several vertices listed once (`splits`), their corners picking one by ordinal
 //! (`choices`). The face streams are mode 2's (`super::lattice`).
 
-use crate::bytes::Reader;
+use crate::block::s;
+use crate::bytes::{Reader, put_varint, zigzag};
 use crate::error::DecodeError;
 use crate::geometry::fixed::{Contexts, OFFSETS};
+use crate::level_encode::Streams;
 use crate::topology::ROTATIONS;
 use crate::topology::slots::{self as lattice, CornerKeys};
 use crate::topology::{NO_PARENT, NO_POS, NONE};
@@ -324,4 +326,86 @@ fn unused_vertices(k: u32, nv: usize, r: &mut Reader<'_>, numbering: &mut Number
         corners.push(numbering.keys_at.corner(key));
     }
     Ok(())
+}
+
+/// Mode 3's vertex numbering (spec §5.9): vertices by first use in corner order, the split keys,
+/// exceptions and choices, and the vertices no corner uses. Returns the corners' new vertex
+/// indices and the input index of every new vertex.
+pub fn encode(
+    k: u32,
+    corners: &[[u32; 3]],
+    (corner_vertex, pred): (&[u32], &[u64]),
+    pos: &mut [u8],
+    nv: usize,
+    st: &mut Streams,
+) -> (Vec<u32>, Vec<u32>) {
+    let vkey: Vec<u64> = corners.iter().map(|&c| lattice::corner_key(c, k)).collect();
+    let mut used = vec![false; nv];
+    for &v in corner_vertex {
+        used[v as usize] = true;
+    }
+    // Keys of two or more vertices that corners use are split keys.
+    let mut keyed: Vec<u64> = (0..nv).filter(|&v| used[v]).map(|v| vkey[v]).collect();
+    keyed.sort_unstable();
+    let mut split_keys: Vec<u64> = keyed.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
+    split_keys.dedup();
+    put_varint(&mut st.0[s::SPLITS], split_keys.len() as u64);
+    for (i, &key) in split_keys.iter().enumerate() {
+        put_varint(&mut st.0[s::SPLITS], if i == 0 { key } else { key - split_keys[i - 1] - 1 });
+    }
+    let mut lists: std::collections::BTreeMap<u64, Vec<u32>> =
+        split_keys.iter().map(|&key| (key, Vec::new())).collect();
+    let mut vnew = vec![u32::MAX; nv];
+    let mut vorder: Vec<u32> = Vec::with_capacity(nv);
+    let mut indices = Vec::with_capacity(corner_vertex.len());
+    let mut exceptions: Vec<(usize, u32, Option<i64>)> = Vec::new();
+    for (c, &v) in corner_vertex.iter().enumerate() {
+        let vi = v as usize;
+        let new = vnew[vi] == u32::MAX;
+        if new {
+            vnew[vi] = vorder.len() as u32;
+            vorder.push(v);
+        }
+        let x = vnew[vi];
+        indices.push(x);
+        if vkey[vi] != pred[c] {
+            exceptions.push((c, x, new.then(|| vkey[vi] as i64 - pred[c] as i64)));
+            pos[c] = NO_POS;
+            if new {
+                if let Some(l) = lists.get_mut(&vkey[vi]) {
+                    l.push(x);
+                }
+            }
+            continue;
+        }
+        if let Some(l) = lists.get_mut(&pred[c]) {
+            let o = l.iter().position(|&y| y == x).unwrap_or_else(|| {
+                l.push(x);
+                l.len() - 1
+            });
+            put_varint(&mut st.0[s::CHOICES], o as u64);
+        }
+    }
+    let e = &mut st.0[s::EXCEPTIONS];
+    put_varint(e, exceptions.len() as u64);
+    for (j, &(c, x, key)) in exceptions.iter().enumerate() {
+        put_varint(e, if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
+        put_varint(e, u64::from(x));
+        if let Some(d) = key {
+            put_varint(e, zigzag(d));
+        }
+    }
+    // Vertices no corner uses, by key.
+    let mut extras: Vec<u32> = (0..nv as u32).filter(|&v| !used[v as usize]).collect();
+    extras.sort_by_key(|&v| (vkey[v as usize], v));
+    let r = &mut st.0[s::EXTRA_NAMES];
+    put_varint(r, extras.len() as u64);
+    let mut prev = 0i64;
+    for &v in &extras {
+        let key = vkey[v as usize] as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+        vorder.push(v);
+    }
+    (indices, vorder)
 }

@@ -3,8 +3,9 @@
 //! vertices of each name, and every corner's vertex.
 
 use crate::block::{Mode, s};
-use crate::bytes::{Reader, unzigzag};
+use crate::bytes::{Reader, put_varint, unzigzag, zigzag};
 use crate::error::{DecodeError, Where};
+use crate::level_encode::{CornerPlan, Streams};
 use crate::topology::slots as lattice;
 use crate::topology::{NO_POS, NONE};
 
@@ -355,6 +356,130 @@ pub fn decode_corners(
         }
     }
     Ok(())
+}
+
+/// The name set of §5.5 (the predicted names and the vertices' names, merged), each with its
+/// first vertex in canonical order and its vertex count.
+fn name_set(vorder: &[u32], vname: &[u64], predicted: &[u64]) -> Vec<(u64, u32, u32)> {
+    let mut names: Vec<(u64, u32, u32)> = Vec::with_capacity(predicted.len() + 16);
+    let mut vi = 0usize;
+    let mut pi = 0usize;
+    loop {
+        let vn = vorder.get(vi).map(|&v| vname[v as usize]);
+        let pn = predicted.get(pi).copied();
+        let nm = match (vn, pn) {
+            (None, None) => break,
+            (Some(a), Some(b)) => a.min(b),
+            (Some(a), None) => a,
+            (None, Some(b)) => b,
+        };
+        let first = vi as u32;
+        while vi < vorder.len() && vname[vorder[vi] as usize] == nm {
+            vi += 1;
+        }
+        if pn == Some(nm) {
+            pi += 1;
+        }
+        names.push((nm, first, vi as u32 - first));
+    }
+    names
+}
+
+/// Encodes the name set, splits and corners of a mode 1 or 2 level (§5.5, §5.6): vertex names
+/// (lattice keys, or the subdivision name their corners predict, or fresh names after
+/// `name_base_free`), the canonical vertex order (§5.7), extra names, splits, choices, exceptions
+/// and explicit corners. Returns the corners' canonical vertices and `vorder[new] = old`.
+#[allow(clippy::needless_range_loop)]
+pub fn encode(
+    k: u32,
+    mode: Mode,
+    nv: usize,
+    input_corners: Option<&[[u32; 3]]>,
+    plan: &mut CornerPlan,
+    st: &mut Streams,
+) -> (Vec<u32>, Vec<u32>) {
+    let CornerPlan { vertex: corner_vertex, pred, pos, name_base_free, .. } = plan;
+    // Vertex names (§5.5) and canonical vertex order (§5.7).
+    let mut vname = vec![u64::MAX; nv];
+    let mut first_seen = vec![u64::MAX; nv];
+    if let Some(corners) = input_corners.filter(|_| mode == Mode::Lattice) {
+        for v in 0..nv {
+            vname[v] = lattice::corner_key(corners[v], k);
+        }
+    }
+    for (c, &v) in corner_vertex.iter().enumerate() {
+        let v = v as usize;
+        if first_seen[v] == u64::MAX {
+            first_seen[v] = c as u64;
+        }
+        if mode == Mode::Generic && vname[v] == u64::MAX && pred[c] != u64::MAX {
+            vname[v] = pred[c];
+        }
+    }
+    if mode == Mode::Generic {
+        let mut next = *name_base_free;
+        for &v in corner_vertex.iter() {
+            if vname[v as usize] == u64::MAX {
+                vname[v as usize] = next;
+                next += 1;
+            }
+        }
+        for n in &mut vname {
+            if *n == u64::MAX {
+                *n = next;
+                next += 1;
+            }
+        }
+    }
+    let mut vorder: Vec<u32> = (0..nv as u32).collect();
+    vorder.sort_by_key(|&v| (vname[v as usize], first_seen[v as usize], v));
+    let mut vnew = vec![0u32; nv];
+    for (new, &old) in vorder.iter().enumerate() {
+        vnew[old as usize] = new as u32;
+    }
+    let mut predicted: Vec<u64> = pred.iter().copied().filter(|&x| x != u64::MAX).collect();
+    predicted.sort_unstable();
+    predicted.dedup();
+    let names = name_set(&vorder, &vname, &predicted);
+    let extras: Vec<u64> = names.iter().map(|n| n.0).filter(|n| predicted.binary_search(n).is_err()).collect();
+    put_varint(&mut st.0[s::EXTRA_NAMES], extras.len() as u64);
+    for (i, &n) in extras.iter().enumerate() {
+        put_varint(&mut st.0[s::EXTRA_NAMES], if i == 0 { n } else { n - extras[i - 1] - 1 });
+    }
+    let splits: Vec<(usize, u32)> = names.iter().enumerate().filter(|(_, n)| n.2 != 1).map(|(i, n)| (i, n.2)).collect();
+    put_varint(&mut st.0[s::SPLITS], splits.len() as u64);
+    for (j, &(i, count)) in splits.iter().enumerate() {
+        put_varint(&mut st.0[s::SPLITS], if j == 0 { i as u64 } else { (i - splits[j - 1].0 - 1) as u64 });
+        put_varint(&mut st.0[s::SPLITS], u64::from(count));
+    }
+    // Corners (§5.6).
+    let mut indices = Vec::with_capacity(corner_vertex.len());
+    let mut exceptions: Vec<(usize, u32)> = Vec::new();
+    let mut prev_explicit = 0i64;
+    for (c, &v) in corner_vertex.iter().enumerate() {
+        let nvx = vnew[v as usize];
+        indices.push(nvx);
+        if pred[c] == u64::MAX {
+            put_varint(&mut st.0[s::CORNERS], zigzag(i64::from(nvx) - prev_explicit));
+            prev_explicit = i64::from(nvx);
+            continue;
+        }
+        if vname[v as usize] != pred[c] {
+            exceptions.push((c, nvx));
+            pos[c] = NO_POS;
+            continue;
+        }
+        let i = names.binary_search_by_key(&pred[c], |n| n.0).expect("name present");
+        if names[i].2 > 1 {
+            put_varint(&mut st.0[s::CHOICES], u64::from(nvx - names[i].1));
+        }
+    }
+    put_varint(&mut st.0[s::EXCEPTIONS], exceptions.len() as u64);
+    for (j, &(c, v)) in exceptions.iter().enumerate() {
+        put_varint(&mut st.0[s::EXCEPTIONS], if j == 0 { c as u64 } else { (c - exceptions[j - 1].0 - 1) as u64 });
+        put_varint(&mut st.0[s::EXCEPTIONS], u64::from(v));
+    }
+    (indices, vorder)
 }
 
 #[cfg(test)]
