@@ -2,13 +2,12 @@
 //! spec §5.7 (the order the decoder produces), picks the lattice mode when the level allows it,
 //! and writes the streams. Deterministic: no hash-map iteration reaches the output.
 
-use crate::block::{BLOCK_FLAG_LATTICE, MAX_LINE_SHIFT, Mode, PREDICTOR_LINES, STREAM_COUNT, s};
-use crate::bytes::{put_planes, put_varint, zigzag};
+use crate::block::{BLOCK_FLAG_LATTICE, Mode, STREAM_COUNT, s};
+use crate::bytes::put_varint;
 use crate::error::EncodeError;
-use crate::geometry::fixed as fast;
-use crate::geometry::predict::{GeometryScratch, Topo, geometry_pass};
-use crate::geometry::residuals::put_grid_streams;
+use crate::geometry::residuals::choose_geometry;
 use crate::level_decode::PlainLevel;
+use crate::topology::slots;
 use crate::topology::slots::{self as lattice, MAX_LATTICE_DEPTH};
 use crate::topology::{NO_PARENT, NO_POS, Parent, base, best_rotation, first_use, names, number_edges, rotated};
 
@@ -352,218 +351,10 @@ fn face_streams(
         if has_lattice {
             level.slots = input.slots.map(|sl| order.iter().map(|&f| sl[f as usize]).collect());
             level.corners = input.corners.map(|c| vorder.iter().map(|&v| c[v as usize]).collect());
-            raw_lattice(st, &level, k);
+            slots::encode_raw_lattice(st, &level, k);
         }
     }
     level
-}
-
-/// The geometry stream (§6) of a refinement level: the predictor (§6.3), layout and line spacing
-/// (§6.6) that compress best. Returns the block's `predictor` byte, its `line_shift`, and the
-/// parent's canonical quads (lattice levels).
-#[allow(clippy::too_many_arguments)]
-fn choose_geometry(
-    k: u32,
-    mode: Mode,
-    (bits, exact): (u32, bool),
-    level: &PlainLevel,
-    parent: &PlainLevel,
-    pos: &[u8],
-    topology_only: bool,
-    st: &mut Streams,
-) -> (u8, u32, Vec<([u32; 4], u8)>) {
-    let pp = parent.as_parent();
-    let quads = if mode.is_lattice() { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
-    let mut predictor = 0u8;
-    let mut line_shift = 0u32;
-    if !topology_only {
-        st.0[s::GEOMETRY] = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (0, 0)).0;
-        if !exact {
-            // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
-            let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
-            let mut best = size(&st.0[s::GEOMETRY]);
-            let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
-                let n = size(&bytes);
-                if n < best {
-                    best = n;
-                    st.0[s::GEOMETRY] = bytes;
-                    (predictor, line_shift) = variant;
-                }
-            };
-            if mode.is_lattice() {
-                consider(geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (1, 0)).0, (1, 0), st);
-            }
-            let line_predictors: &[u8] = if mode.is_lattice() { &[0, 1] } else { &[0] };
-            for &p in line_predictors {
-                let variant = p | PREDICTOR_LINES;
-                let (bytes, js) = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, 0));
-                consider(bytes, (variant, 0), st);
-                let shift = common_shift(&js);
-                if shift > 0 {
-                    let bytes = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, shift)).0;
-                    consider(bytes, (variant, shift), st);
-                }
-            }
-        }
-    }
-    (predictor, line_shift, quads)
-}
-
-pub fn raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
-    let r = &mut st.0[s::RAW_LATTICE];
-    let mut prev = 0i64;
-    for &(v, d) in level.slots.as_deref().unwrap_or_default() {
-        let key = lattice::slot_key(v, d, k) as i64;
-        put_varint(r, zigzag(key - prev));
-        prev = key;
-    }
-    prev = 0;
-    for &c in level.corners.as_deref().unwrap_or_default() {
-        let key = lattice::corner_key(c, k) as i64;
-        put_varint(r, zigzag(key - prev));
-        prev = key;
-    }
-}
-
-/// The geometry stream (§6.1) of a level under the given predictor.
-#[allow(clippy::too_many_arguments)]
-pub fn geometry(
-    level: &PlainLevel,
-    mode: Mode,
-    k: u32,
-    bits: u32,
-    exact: bool,
-    parent: Option<&PlainLevel>,
-    pos: &[u8],
-    quads: &[([u32; 4], u8)],
-    (predictor, line_shift): (u8, u32),
-) -> (Vec<u8>, Vec<i64>) {
-    let mut g = Vec::new();
-    if mode == Mode::FastLattice && !exact {
-        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift));
-    }
-    if exact {
-        for a in 0..3 {
-            let vals: Vec<u64> = level.exact.iter().map(|p| p[a].to_bits()).collect();
-            put_planes(&mut g, &vals);
-        }
-        return (g, Vec::new());
-    }
-    let nv = level.q.len();
-    let lines = predictor & PREDICTOR_LINES != 0;
-    let target = &level.q;
-    let pp = parent.map(PlainLevel::as_parent);
-    let topo = Topo {
-        mode,
-        level: k,
-        bits,
-        offsets: &level.offsets,
-        indices: &level.indices,
-        parents: &level.parents,
-        quadrants: &level.quadrants,
-        corner_pos: pos,
-        vertex_corners: level.corners.as_deref(),
-        parent_quads: (mode == Mode::Lattice).then_some(quads),
-        predictor: predictor & !PREDICTOR_LINES,
-        lines,
-        line_shift,
-    };
-    // Without lines: residuals by vertex index. With lines (§6.6): line flags, then parameters
-    // and the other vertices' residuals in coding order.
-    let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
-    let mut params = Vec::new();
-    let mut js = Vec::new();
-    let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
-    let mut q = vec![[0i64; 3]; nv];
-    let mut order = Vec::with_capacity(if lines { 0 } else { nv });
-    let _: Result<(), ()> = geometry_pass(&topo, pp.as_ref(), &mut q, &mut GeometryScratch::default(), |v, pr| {
-        let t = target[v];
-        if let Some(j) = pr.line.and_then(|l| l.param(t)) {
-            flags[v / 8] |= 1 << (v % 8);
-            params.push(zigzag(j - pr.param));
-            js.push(j);
-            return Ok((t, Some(j)));
-        }
-        let point = pr.point();
-        for a in 0..3 {
-            res[a].push(zigzag(t[a] - point[a]));
-        }
-        order.push(v as u32);
-        Ok((t, None))
-    });
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
-    (g, js)
-}
-
-/// The geometry stream of a mode 3 level (spec §6.8) of a grid file.
-fn fast_geometry(
-    level: &PlainLevel,
-    k: u32,
-    bits: u32,
-    parent: &PlainLevel,
-    pos: &[u8],
-    quads: &[([u32; 4], u8)],
-    (predictor, line_shift): (u8, u32),
-) -> (Vec<u8>, Vec<i64>) {
-    let nv = level.q.len();
-    let lines = predictor & PREDICTOR_LINES != 0;
-    let mut contexts = fast::Contexts::default();
-    fast::contexts(&level.indices, &level.parents, &level.quadrants, pos, quads, nv, &mut contexts);
-    let topo = fast::FastTopo {
-        level: k,
-        bits,
-        indices: &level.indices,
-        slots: level.slots.as_deref().unwrap_or_default(),
-        vertex_corners: level.corners.as_deref().unwrap_or_default(),
-        contexts: &contexts,
-        parent_quads: quads,
-        lines,
-        line_shift,
-        predictor: predictor & 1,
-    };
-    let target = &level.q;
-    let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
-    let mut params = Vec::new();
-    let mut js = Vec::new();
-    let mut flags = vec![0u8; if lines { nv.div_ceil(8) } else { 0 }];
-    let mut order = Vec::with_capacity(if lines { 0 } else { nv });
-    let mut q = vec![[0i64; 3]; nv];
-    let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
-        let t = target[v];
-        if let Some(j) = pr.line.and_then(|l| l.param(t)) {
-            flags[v / 8] |= 1 << (v % 8);
-            params.push(zigzag(j - pr.param));
-            js.push(j);
-            return Ok(t);
-        }
-        for a in 0..3 {
-            res[a].push(zigzag(t[a] - pr.point[a]));
-        }
-        order.push(v as u32);
-        Ok(t)
-    });
-    let mut g = Vec::new();
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
-    (g, js)
-}
-
-/// The largest line spacing exponent (spec §6.6) that at least 15 in 16 of the nonzero line
-/// parameters `js` (found with spacing 1) are multiples of; 0 when there are none.
-fn common_shift(js: &[i64]) -> u32 {
-    let nonzero: Vec<u32> = js.iter().filter(|&&j| j != 0).map(|j| j.trailing_zeros()).collect();
-    if nonzero.is_empty() {
-        return 0;
-    }
-    let mut best = 0;
-    for shift in 1..=MAX_LINE_SHIFT {
-        let fits = nonzero.iter().filter(|&&z| z >= shift).count();
-        if fits * 16 >= nonzero.len() * 15 {
-            best = shift;
-        } else {
-            break;
-        }
-    }
-    best
 }
 
 pub fn finish(

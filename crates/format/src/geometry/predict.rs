@@ -5,7 +5,8 @@
 //! The geometry pass ([`geometry_pass`]) is one function used by both directions, so that encoder
 //! and decoder cannot disagree on a prediction.
 
-use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
+use crate::block::{Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
+pub use crate::geometry::lines::Line;
 use crate::topology::slots as lattice;
 use crate::topology::{NO_PARENT, NO_POS, NONE, Parent};
 
@@ -60,61 +61,6 @@ pub struct Topo<'a> {
     pub line_shift: u32,
 }
 
-/// A vertex's prediction line (spec §6.6): the grid points `base + round_away(j * u)` for integer
-/// `j`, where `u` is the predicted normal scaled so that its largest component is exactly ±1.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Line {
-    /// The line's point for `j = 0` (the base prediction).
-    pub base: [i64; 3],
-    /// The direction, largest component `±2^shift`.
-    pub u: [f64; 3],
-}
-
-impl Line {
-    /// The line through `base` along `n` (`(0, 0, 1)` when `n` is zero), its points `2^shift`
-    /// apart along the largest axis (`shift <= MAX_LINE_SHIFT`).
-    #[inline]
-    pub fn new(base: [i64; 3], n: [f64; 3], shift: u32) -> Self {
-        Self { base, u: Self::direction(n, shift) }
-    }
-
-    /// The direction `u` of spec §6.6 for normal `n` and spacing exponent `shift`.
-    #[inline]
-    pub fn direction(n: [f64; 3], shift: u32) -> [f64; 3] {
-        let m = n[0].abs().max(n[1].abs()).max(n[2].abs());
-        let u = if m > 0.0 { [n[0] / m, n[1] / m, n[2] / m] } else { [0.0, 0.0, 1.0] };
-        // Scaling by a power of two is exact.
-        let scale = f64::from(1u32 << shift.min(MAX_LINE_SHIFT));
-        [u[0] * scale, u[1] * scale, u[2] * scale]
-    }
-
-    /// The grid point of parameter `j` (`|j| <= LINE_PARAM_LIMIT`), saturating.
-    #[inline]
-    pub fn point(&self, j: i64) -> [i64; 3] {
-        let jf = j as f64;
-        [
-            self.base[0].saturating_add(round_away(jf * self.u[0])),
-            self.base[1].saturating_add(round_away(jf * self.u[1])),
-            self.base[2].saturating_add(round_away(jf * self.u[2])),
-        ]
-    }
-
-    /// The parameter of grid point `q` when `q` lies on the line (within the parameter limit).
-    pub fn param(&self, q: [i64; 3]) -> Option<i64> {
-        // The largest component is exactly ±2^shift by construction (spec §6.6).
-        let top = self.u[0].abs().max(self.u[1].abs()).max(self.u[2].abs());
-        #[allow(clippy::float_cmp)]
-        let a = (0..3).find(|&a| self.u[a].abs() == top)?;
-        let d = q[a].checked_sub(self.base[a])?;
-        let step = self.u[a] as i64;
-        if step == 0 || d % step != 0 {
-            return None;
-        }
-        let j = d / step;
-        (j.abs() <= LINE_PARAM_LIMIT && self.point(j) == q).then_some(j)
-    }
-}
-
 /// What pass A or B predicts for one vertex.
 #[derive(Clone, Copy, Debug)]
 pub struct Prediction {
@@ -164,7 +110,7 @@ fn bilinear_sum_of(p: &[[i64; 3]; 4], slot: ([u32; 3], u8), corner: [u32; 3]) ->
 /// without a library call: below 2^52 the fraction `x - trunc(x)` is exact; above, `x` is an
 /// integer.
 #[inline]
-fn round_away(x: f64) -> i64 {
+pub fn round_away(x: f64) -> i64 {
     if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
         return x as i64;
     }
@@ -635,7 +581,8 @@ pub fn newell_normal(pq: &[[i64; 3]], face: &[u32]) -> [f64; 3] {
 
 #[cfg(test)]
 mod tests {
-    use super::{LINE_PARAM_LIMIT, Line, round_away, round_div};
+    use super::{Line, round_away, round_div};
+    use crate::block::LINE_PARAM_LIMIT;
 
     #[test]
     fn every_line_point_has_one_parameter() {

@@ -4,8 +4,10 @@
 use crate::block::{Mode, s};
 use crate::bytes::{Reader, put_varint, unzigzag, zigzag};
 use crate::error::DecodeError;
+use crate::geometry::residuals::geometry;
 use crate::level_decode::PlainLevel;
-use crate::level_encode::{Encoded, InputLevel, Streams, finish, geometry, raw_lattice};
+use crate::level_encode::{Encoded, InputLevel, Streams, finish};
+use crate::topology::slots;
 use crate::topology::{NO_PARENT, NO_POS};
 
 /// Decodes the faces and corners of a mode 0 level into `out` (whose `offsets` hold `[0]` and
@@ -61,7 +63,7 @@ pub fn encode(k: u32, input: &InputLevel<'_>, has_lattice: bool, (bits, exact): 
     if has_lattice {
         level.slots = input.slots.map(<[_]>::to_vec);
         level.corners = input.corners.map(<[_]>::to_vec);
-        raw_lattice(&mut st, &level, k);
+        slots::encode_raw_lattice(&mut st, &level, k);
     }
     level.q.clone_from(&input.q);
     level.exact.clone_from(&input.exact);

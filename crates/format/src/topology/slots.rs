@@ -4,8 +4,11 @@
 use octowrap_geom::cell::{SIDE_CORNER_UW, side_axis as normal_axis, side_is_positive as positive};
 pub use octowrap_geom::cell::{side_corners as slot_corners, side_plane_axes as plane_axes};
 
-use crate::bytes::{Reader, unzigzag};
+use crate::block::s;
+use crate::bytes::{Reader, put_varint, unzigzag, zigzag};
 use crate::error::DecodeError;
+use crate::level_decode::PlainLevel;
+use crate::level_encode::Streams;
 
 /// The deepest level whose lattice a file may name (keys then fit in 64 bits with room to spare).
 pub const MAX_LATTICE_DEPTH: u32 = 20;
@@ -219,6 +222,24 @@ pub fn decode_raw_lattice(
         corners.push(c);
     }
     Ok((slots, corners))
+}
+
+/// Writes a mode 0 or 1 level's lattice coordinates (§5.8): its slot keys, then its corner
+/// keys, each list as zigzag deltas.
+pub fn encode_raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
+    let r = &mut st.0[s::RAW_LATTICE];
+    let mut prev = 0i64;
+    for &(v, d) in level.slots.as_deref().unwrap_or_default() {
+        let key = slot_key(v, d, k) as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+    }
+    prev = 0;
+    for &c in level.corners.as_deref().unwrap_or_default() {
+        let key = corner_key(c, k) as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+    }
 }
 
 #[cfg(test)]
