@@ -1,4 +1,4 @@
-//! Byte-level primitives of spec/FORMAT.md §2 (Conventions): LEB128 varints, zigzag, byte planes,
+//! Byte-level primitives of spec §1 Conventions: varints (§1.3), zigzag (§1.4), byte planes (§1.5),
 //! and a bounds-checked reader that names the offset of every failure.
 
 use crate::error::{DecodeError, Where};

@@ -1,4 +1,5 @@
-//! The container of spec §3: file header, level table, metadata block and preamble checksum.
+//! The container of spec §3 File structure: the file header (§3.1), level table (§3.2), metadata
+//! block (§3.3) and preamble checksum (§3.4), and what they say about a file ([`FileInfo`]).
 //!
 //! The header and table entries are serialized with bincode 2.0.1 (fixed-width little-endian
 //! integers, arrays without length prefixes), whose bytes spec §3 defines independently; the unit
@@ -24,7 +25,7 @@ pub const FLAG_EXACT: u32 = 2;
 pub const FLAG_TIED: u32 = 4;
 const KNOWN_FLAGS: u32 = FLAG_CUBE | FLAG_EXACT | FLAG_TIED;
 
-/// The file header (spec §3.2), field names as in the spec.
+/// The file header (spec §3.1), field names as in the spec.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FileHeader {
     /// [`MAGIC`].
@@ -54,7 +55,7 @@ pub struct FileHeader {
     pub reserved: u32,
 }
 
-/// One level-table entry (spec §3.3).
+/// One level-table entry (spec §3.2).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LevelEntry {
     /// File offset of the level's stored bytes.
@@ -75,7 +76,7 @@ pub struct LevelEntry {
     pub reserved: u32,
 }
 
-/// The metadata block (spec §3.4).
+/// The metadata block (spec §3.3).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Metadata {
     /// Length unit of positions (`"m"`, `"mm"`, ...; empty when unknown).
@@ -395,7 +396,7 @@ mod tests {
             metadata_size: 40,
             reserved: 0,
         };
-        // Written by hand from spec §3.2.
+        // Written by hand from spec §3.1.
         let mut want = MAGIC.to_vec();
         want.extend(1u16.to_le_bytes());
         want.extend(112u16.to_le_bytes());

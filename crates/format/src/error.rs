@@ -1,4 +1,4 @@
-//! Typed errors. Decoding errors name where the problem lies (the preamble or level `k`, and a
+//! Typed errors (spec §7.3 Errors). Decoding errors name where the problem lies (the preamble or level `k`, and a
 //! byte offset) and what is wrong; encoding errors name the offending level and element.
 
 use std::fmt;

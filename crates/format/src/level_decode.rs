@@ -1,5 +1,7 @@
-//! The level decoder: spec §4-§6 read in order. Works on plain arrays; every count is checked
-//! against the level-table entry (itself checked against [`crate::Limits`]) before allocating.
+//! The level decoder: one level block through spec §4 (block header, streams), §5 (the topology
+//! of its mode, in `crate::topology`) and §6 (its geometry, in `crate::geometry`), in the spec's
+//! order. Works on plain arrays; every count is checked against the streams and the level-table
+//! entry (itself checked against [`crate::Limits`]) before allocating.
 
 use crate::block::{BlockHeader, GridInfo, LINE_PARAM_LIMIT, Mode, STREAM_COUNT, s};
 use crate::bytes::{Reader, unzigzag};

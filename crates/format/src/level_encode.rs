@@ -1,6 +1,7 @@
-//! The level encoder: the inverse of `decode.rs`. It puts each level in the canonical order of
-//! spec §5.7 (the order the decoder produces), picks the lattice mode when the level allows it,
-//! and writes the streams. Deterministic: no hash-map iteration reaches the output.
+//! The level encoder, the inverse of `level_decode`: it picks the mode (§4.1), puts the level in
+//! the canonical order of spec §5.7 (the order the decoder produces), predicts every corner, and
+//! writes the streams: each mode's names and corners in `crate::topology`, the geometry in
+//! `crate::geometry::residuals`. Deterministic: no hash-map iteration reaches the output.
 
 use crate::block::{BLOCK_FLAG_LATTICE, Mode, STREAM_COUNT, s};
 use crate::bytes::put_varint;

@@ -1,7 +1,7 @@
 //! Line placement (spec §6.6 Line geometry, §8 Encoder requirements and advice): the encoder side
-//! of one-number geometry, a co-design with reconstruction. A refinement level's vertex with a parent context has a *prediction line* that the decoder
-//! derives from the decoded parent alone (the base prediction of §6.3 / §6.4 and the parent face's
-//! normal). A vertex that lies on its line costs one number (its parameter along the line) instead
+//! of one-number geometry, a co-design with reconstruction. A refinement level's vertex with a
+//! parent context has a *prediction line* that the decoder derives from the decoded parent alone
+//! (the base prediction of §6.3 / §6.4 and the parent face's normal). A vertex that lies on its line costs one number (its parameter along the line) instead
 //! of three residuals. [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines,
 //! coarse to fine, each along its own tangent plane, so that the surface barely moves and the file
 //! still stores exactly what the caller holds (every moved vertex sits on a grid point).

@@ -1,5 +1,6 @@
-//! Octree lattice geometry of spec §5.3 (Lattice refinement): slot keys, corner keys, and the child
-//! slot under a parent quadrant. A slot's canonical corner order is `octowrap_geom::cell`'s.
+//! Octree lattice keys of spec §5.3 (Lattice refinement) and §5.8 (Raw lattice): slot keys, corner
+//! keys, the child slot under a parent quadrant, and the raw lattice stream in both directions. A
+//! slot's canonical corner order is `octowrap_geom::cell`'s.
 
 use octowrap_geom::cell::{SIDE_CORNER_UW, side_axis as normal_axis, side_is_positive as positive};
 pub use octowrap_geom::cell::{side_corners as slot_corners, side_plane_axes as plane_axes};
