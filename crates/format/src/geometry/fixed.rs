@@ -148,6 +148,16 @@ pub struct Contexts {
 }
 
 impl Contexts {
+    /// Every one of `nv` vertices without a first corner or a context.
+    pub fn reset(&mut self, nv: usize) {
+        self.first.clear();
+        self.first.resize(nv, NONE);
+        self.face.clear();
+        self.face.resize(nv, NONE);
+        self.stencil.clear();
+        self.stencil.resize(nv, 0);
+    }
+
     /// Bytes held.
     pub fn capacity_bytes(&self) -> usize {
         self.first.capacity() * 4 + self.face.capacity() * 4 + self.stencil.capacity()
@@ -166,12 +176,7 @@ pub fn contexts(
     nv: usize,
     out: &mut Contexts,
 ) {
-    out.first.clear();
-    out.first.resize(nv, NONE);
-    out.face.clear();
-    out.face.resize(nv, NONE);
-    out.stencil.clear();
-    out.stencil.resize(nv, 0);
+    out.reset(nv);
     for (c, &v) in indices.iter().enumerate() {
         let v = v as usize;
         if out.first[v] == NONE {

@@ -115,12 +115,7 @@ pub fn resolve(
     (scratch, ctx): (&mut ResolveScratch, &mut Contexts),
 ) -> Result<Vec<[u32; 3]>, DecodeError> {
     let nc = pred.len();
-    ctx.first.clear();
-    ctx.first.resize(nv, NONE);
-    ctx.face.clear();
-    ctx.face.resize(nv, NONE);
-    ctx.stencil.clear();
-    ctx.stencil.resize(nv, 0);
+    ctx.reset(nv);
     let mut table = split_keys(k, nv, nc, st.splits, scratch)?;
     let mut numbering = Numbering { corners: Vec::with_capacity(nv), ctx, keys_at: CornerKeys::new(k), nv };
     let exceptions = ExceptionList::read(st.exceptions, nc)?;
