@@ -1,7 +1,7 @@
-//! Byte-level primitives of spec/FORMAT.md §2 (Conventions): LEB128 varints, zigzag, byte planes,
+//! Byte-level primitives of spec §1 Conventions: varints (§1.3), zigzag (§1.4), byte planes (§1.5),
 //! and a bounds-checked reader that names the offset of every failure.
 
-use crate::error::{Error, Where};
+use crate::error::{DecodeError, Where};
 
 /// Appends `v` as an unsigned LEB128 varint (7 bits per byte, least significant group first).
 pub fn put_varint(out: &mut Vec<u8>, mut v: u64) {
@@ -56,23 +56,28 @@ impl<'a> Reader<'a> {
         self.base + self.pos as u64
     }
 
+    /// The bytes not yet read.
+    pub fn rest(&self) -> &'a [u8] {
+        &self.data[self.pos..]
+    }
+
     /// Bytes not yet read.
     pub fn remaining(&self) -> usize {
         self.data.len() - self.pos
     }
 
     /// An `Invalid` error at the current offset.
-    pub fn invalid(&self, reason: impl Into<String>) -> Error {
-        Error::Invalid { place: self.place, offset: self.offset(), what: self.stream, reason: reason.into() }
+    pub fn invalid(&self, reason: impl Into<String>) -> DecodeError {
+        DecodeError::Invalid { place: self.place, offset: self.offset(), what: self.stream, reason: reason.into() }
     }
 
     /// An `Invalid` error at `offset` (within the region).
-    pub fn invalid_at(&self, offset: u64, reason: impl Into<String>) -> Error {
-        Error::Invalid { place: self.place, offset, what: self.stream, reason: reason.into() }
+    pub fn invalid_at(&self, offset: u64, reason: impl Into<String>) -> DecodeError {
+        DecodeError::Invalid { place: self.place, offset, what: self.stream, reason: reason.into() }
     }
 
     /// Fails unless every byte was consumed (streams have exact lengths).
-    pub fn finish(&self) -> Result<(), Error> {
+    pub fn finish(&self) -> Result<(), DecodeError> {
         if self.remaining() != 0 {
             return Err(self.invalid(format!("{} unused bytes at the end of the stream", self.remaining())));
         }
@@ -81,7 +86,7 @@ impl<'a> Reader<'a> {
 
     /// Reads one byte.
     #[inline]
-    pub fn u8(&mut self) -> Result<u8, Error> {
+    pub fn u8(&mut self) -> Result<u8, DecodeError> {
         let Some(&b) = self.data.get(self.pos) else {
             return Err(self.invalid("stream ends early"));
         };
@@ -90,7 +95,7 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads `n` bytes.
-    pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], Error> {
+    pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], DecodeError> {
         if self.remaining() < n {
             return Err(self.invalid(format!("stream ends early: {n} bytes needed, {} left", self.remaining())));
         }
@@ -100,14 +105,14 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads a little-endian `u32`.
-    pub fn u32(&mut self) -> Result<u32, Error> {
+    pub fn u32(&mut self) -> Result<u32, DecodeError> {
         let b = self.bytes(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
     /// Reads an unsigned LEB128 varint of at most 10 bytes whose value fits in 64 bits.
     #[inline]
-    pub fn varint(&mut self) -> Result<u64, Error> {
+    pub fn varint(&mut self) -> Result<u64, DecodeError> {
         // One byte, the common case.
         if let Some(&b) = self.data.get(self.pos) {
             if b < 0x80 {
@@ -131,11 +136,11 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads a varint that must be at most `max`.
-    pub fn varint_max(&mut self, max: u64, what: &str) -> Result<u64, Error> {
+    pub fn varint_max(&mut self, max: u64, what: &str) -> Result<u64, DecodeError> {
         let at = self.offset();
         let v = self.varint()?;
         if v > max {
-            return Err(Error::Invalid {
+            return Err(DecodeError::Invalid {
                 place: self.place,
                 offset: at,
                 what: self.stream,
@@ -147,7 +152,7 @@ impl<'a> Reader<'a> {
 
     /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes,
     /// without copying: values are assembled on access.
-    pub fn plane_view(&mut self, n: usize, max_planes: u8) -> Result<Planes<'a>, Error> {
+    pub fn plane_view(&mut self, n: usize, max_planes: u8) -> Result<Planes<'a>, DecodeError> {
         let p = self.u8()?;
         if p > max_planes {
             return Err(self.invalid(format!("plane count {p} exceeds {max_planes}")));
@@ -160,7 +165,7 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads a byte-plane block of `n` values (see [`put_planes`]) with at most `max_planes` planes.
-    pub fn planes(&mut self, n: usize, max_planes: u8) -> Result<Vec<u64>, Error> {
+    pub fn planes(&mut self, n: usize, max_planes: u8) -> Result<Vec<u64>, DecodeError> {
         let view = self.plane_view(n, max_planes)?;
         let mut out = vec![0u64; n];
         if n > 0 {

@@ -1,4 +1,5 @@
-//! The container of spec §3: file header, level table, metadata block and preamble checksum.
+//! The container of spec §3 File structure: the file header (§3.1), level table (§3.2), metadata
+//! block (§3.3) and preamble checksum (§3.4), and what they say about a file ([`FileInfo`]).
 //!
 //! The header and table entries are serialized with bincode 2.0.1 (fixed-width little-endian
 //! integers, arrays without length prefixes), whose bytes spec §3 defines independently; the unit
@@ -7,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::xxh3_64;
 
-use crate::error::{Error, Where};
+use crate::error::{DecodeError, Where};
 
 /// The eight bytes every MRQ file starts with.
 pub const MAGIC: [u8; 8] = [0x89, b'M', b'R', b'Q', 0x0D, 0x0A, 0x1A, 0x0A];
@@ -24,7 +25,7 @@ pub const FLAG_EXACT: u32 = 2;
 pub const FLAG_TIED: u32 = 4;
 const KNOWN_FLAGS: u32 = FLAG_CUBE | FLAG_EXACT | FLAG_TIED;
 
-/// The file header (spec §3.2), field names as in the spec.
+/// The file header (spec §3.1), field names as in the spec.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FileHeader {
     /// [`MAGIC`].
@@ -54,7 +55,7 @@ pub struct FileHeader {
     pub reserved: u32,
 }
 
-/// One level-table entry (spec §3.3).
+/// One level-table entry (spec §3.2).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LevelEntry {
     /// File offset of the level's stored bytes.
@@ -75,7 +76,7 @@ pub struct LevelEntry {
     pub reserved: u32,
 }
 
-/// The metadata block (spec §3.4).
+/// The metadata block (spec §3.3).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Metadata {
     /// Length unit of positions (`"m"`, `"mm"`, ...; empty when unknown).
@@ -98,16 +99,16 @@ pub fn to_bytes<T: Serialize>(v: &T) -> Vec<u8> {
     bincode::serde::encode_to_vec(v, config()).expect("plain structs always serialize")
 }
 
-fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, Error> {
+fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, DecodeError> {
     match bincode::serde::decode_from_slice::<T, _>(b, config()) {
         Ok((v, used)) if used == b.len() => Ok(v),
-        Ok((_, used)) => Err(Error::Invalid {
+        Ok((_, used)) => Err(DecodeError::Invalid {
             place: Where::Preamble,
             offset: offset + used as u64,
             what,
             reason: format!("{} bytes left over", b.len() - used),
         }),
-        Err(e) => Err(Error::Invalid { place: Where::Preamble, offset, what, reason: e.to_string() }),
+        Err(e) => Err(DecodeError::Invalid { place: Where::Preamble, offset, what, reason: e.to_string() }),
     }
 }
 
@@ -142,16 +143,20 @@ impl Preamble {
 }
 
 /// Parses and checks the fixed header (the first [`HEADER_SIZE`] bytes).
-pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<FileHeader, Error> {
+pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<FileHeader, DecodeError> {
     if b[..8] != MAGIC {
-        return Err(Error::BadMagic { found: b[..8].to_vec() });
+        return Err(DecodeError::BadMagic { found: b[..8].to_vec() });
     }
     let h: FileHeader = from_bytes(b, 0, "file header")?;
-    if !(1..=crate::LATEST_FORMAT_VERSION).contains(&h.version) {
-        return Err(Error::UnsupportedVersion { found: h.version });
+    if !(1..=crate::FORMAT_VERSION).contains(&h.version) {
+        return Err(DecodeError::UnsupportedVersion { found: h.version });
     }
-    let bad =
-        |offset: u64, reason: String| Error::Invalid { place: Where::Preamble, offset, what: "file header", reason };
+    let bad = |offset: u64, reason: String| DecodeError::Invalid {
+        place: Where::Preamble,
+        offset,
+        what: "file header",
+        reason,
+    };
     if usize::from(h.header_size) != HEADER_SIZE {
         return Err(bad(10, format!("header_size is {}, must be {HEADER_SIZE}", h.header_size)));
     }
@@ -162,7 +167,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
         return Err(bad(16, "level_count is 0".into()));
     }
     if h.level_count > limits.max_levels {
-        return Err(Error::LimitExceeded {
+        return Err(DecodeError::LimitExceeded {
             place: Where::Preamble,
             offset: 16,
             what: "level_count",
@@ -196,7 +201,7 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
         return Err(bad(56, "cube fields must be zero when no cube is recorded".into()));
     }
     if h.metadata_size > limits.max_metadata_bytes {
-        return Err(Error::LimitExceeded {
+        return Err(DecodeError::LimitExceeded {
             place: Where::Preamble,
             offset: 104,
             what: "metadata_size",
@@ -214,7 +219,7 @@ pub fn parse_rest(
     header_bytes: &[u8],
     rest: &[u8],
     limits: &crate::Limits,
-) -> Result<Preamble, Error> {
+) -> Result<Preamble, DecodeError> {
     let n = header.level_count as usize;
     let table_end = n * ENTRY_SIZE;
     let meta_end = table_end + header.metadata_size as usize;
@@ -227,7 +232,7 @@ pub fn parse_rest(
         h.digest()
     };
     if stored != computed {
-        return Err(Error::ChecksumMismatch { place: Where::Preamble, offset: 0, stored, computed });
+        return Err(DecodeError::ChecksumMismatch { place: Where::Preamble, offset: 0, stored, computed });
     }
     let preamble_size = (HEADER_SIZE + meta_end + 8) as u64;
     let mut levels = Vec::with_capacity(n);
@@ -235,7 +240,7 @@ pub fn parse_rest(
     for k in 0..n {
         let at = HEADER_SIZE + k * ENTRY_SIZE;
         let e: LevelEntry = from_bytes(&rest[k * ENTRY_SIZE..(k + 1) * ENTRY_SIZE], at as u64, "level table entry")?;
-        let bad = |off: usize, reason: String| Error::Invalid {
+        let bad = |off: usize, reason: String| DecodeError::Invalid {
             place: Where::Preamble,
             offset: (at + off) as u64,
             what: "level table entry",
@@ -249,7 +254,13 @@ pub fn parse_rest(
         }
         let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
             if value > limit {
-                Err(Error::LimitExceeded { place: Where::Preamble, offset: (at + off) as u64, what, value, limit })
+                Err(DecodeError::LimitExceeded {
+                    place: Where::Preamble,
+                    offset: (at + off) as u64,
+                    what,
+                    value,
+                    limit,
+                })
             } else {
                 Ok(())
             }
@@ -264,6 +275,105 @@ pub fn parse_rest(
     }
     let metadata: Metadata = from_bytes(&rest[table_end..meta_end], (HEADER_SIZE + table_end) as u64, "metadata")?;
     Ok(Preamble { header, levels, metadata })
+}
+
+/// What the preamble of a file says about one level.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct LevelInfo {
+    /// File offset of the stored bytes.
+    pub offset: u64,
+    /// Stored (zstd) size in bytes.
+    pub stored_size: u64,
+    /// Decompressed size in bytes.
+    pub raw_size: u64,
+    /// XXH3-64 of the stored bytes.
+    pub checksum: u64,
+    /// Vertices.
+    pub vertex_count: u32,
+    /// Faces.
+    pub face_count: u32,
+    /// Face corners.
+    pub corner_count: u32,
+}
+
+/// What the preamble of a file says.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FileInfo {
+    /// Format version.
+    pub version: u16,
+    /// `None` for exact files; else the grid.
+    pub grid: Option<GridDescription>,
+    /// The octree cube, when recorded.
+    pub cube: Option<([f64; 3], [f64; 3])>,
+    /// Metadata.
+    pub metadata: MetadataInfo,
+    /// One entry per level.
+    pub levels: Vec<LevelInfo>,
+    /// Bytes before the first level (header, table, metadata, checksum).
+    pub preamble_size: u64,
+}
+
+/// The quantization grid of a file.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GridDescription {
+    /// World position of grid point (0, 0, 0).
+    pub origin: [f64; 3],
+    /// Grid step in world units.
+    pub step: f64,
+    /// Bits (steps across the cube = 2^bits when tied).
+    pub bits: u32,
+    /// Whether the grid is tied to the cube.
+    pub tied_to_cube: bool,
+}
+
+/// Metadata, for reports.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MetadataInfo {
+    /// Length unit.
+    pub units: String,
+    /// Source.
+    pub source: String,
+    /// Writer.
+    pub generator: String,
+    /// Further pairs.
+    pub entries: Vec<(String, String)>,
+}
+
+impl FileInfo {
+    /// The description of a checked preamble.
+    pub fn from_preamble(p: &Preamble) -> Self {
+        let h = &p.header;
+        Self {
+            version: h.version,
+            grid: (h.flags & FLAG_EXACT == 0).then_some(GridDescription {
+                origin: h.origin,
+                step: h.step,
+                bits: h.grid_bits,
+                tied_to_cube: h.flags & FLAG_TIED != 0,
+            }),
+            cube: (h.flags & FLAG_CUBE != 0).then_some((h.cube_min, h.cube_max)),
+            metadata: MetadataInfo {
+                units: p.metadata.units.clone(),
+                source: p.metadata.source.clone(),
+                generator: p.metadata.generator.clone(),
+                entries: p.metadata.entries.clone(),
+            },
+            levels: p
+                .levels
+                .iter()
+                .map(|e| LevelInfo {
+                    offset: e.offset,
+                    stored_size: e.stored_size,
+                    raw_size: e.raw_size,
+                    checksum: e.checksum,
+                    vertex_count: e.vertex_count,
+                    face_count: e.face_count,
+                    corner_count: e.corner_count,
+                })
+                .collect(),
+            preamble_size: p.size(),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -286,7 +396,7 @@ mod tests {
             metadata_size: 40,
             reserved: 0,
         };
-        // Written by hand from spec §3.2.
+        // Written by hand from spec §3.1.
         let mut want = MAGIC.to_vec();
         want.extend(1u16.to_le_bytes());
         want.extend(112u16.to_le_bytes());

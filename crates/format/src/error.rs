@@ -1,4 +1,4 @@
-//! Typed errors. Decoding errors name where the problem lies (the preamble or level `k`, and a
+//! Typed errors (spec §7.3 Errors). Decoding errors name where the problem lies (the preamble or level `k`, and a
 //! byte offset) and what is wrong; encoding errors name the offending level and element.
 
 use std::fmt;
@@ -28,7 +28,7 @@ impl fmt::Display for Where {
 /// Why an MRQ file could not be read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
-pub enum Error {
+pub enum DecodeError {
     /// The file does not start with the MRQ magic number.
     #[error("not an MRQ file: bad magic number at byte 0 (found {found:02x?})")]
     BadMagic {
@@ -38,7 +38,7 @@ pub enum Error {
     /// The file's format version is not one this reader implements.
     #[error(
         "unsupported MRQ format version {found} at byte 8 (this reader implements versions 1 to {})",
-        crate::LATEST_FORMAT_VERSION
+        crate::FORMAT_VERSION
     )]
     UnsupportedVersion {
         /// The version found.

@@ -8,7 +8,7 @@
 
 use octowrap_mesh::{Aabb, DVec3, FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, Quadrant};
 
-use crate::lattice;
+use crate::topology::slots as lattice;
 
 /// The generator the synthetic hierarchies draw from (deterministic from a seed).
 pub use octowrap_geom::SplitMix64 as Rng;

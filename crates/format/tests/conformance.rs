@@ -8,11 +8,12 @@
 
 use std::path::{Path, PathBuf};
 
+use octowrap_format::DecodeError as Error;
 use octowrap_format::fuzzing::{payloads, reseal};
 use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::tamper::fix_preamble_checksum;
 use octowrap_format::{
-    DecodeOptions, EncodeOptions, Error, Limits, Metadata, Quantization, decode, encode, place_on_prediction_lines,
+    DecodeOptions, EncodeOptions, Limits, Metadata, Quantization, decode, encode, place_on_prediction_lines,
 };
 use octowrap_mesh::{DVec3, FaceList, FaceOrigin, Hierarchy, Level, Mesh, Quadrant};
 use serde_json::json;

@@ -2,7 +2,7 @@
 //! checksum (or decodes identically), and random garbage never panics.
 
 use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, without_lattice};
-use octowrap_format::{DecodeOptions, EncodeOptions, Error, Limits, Quantization, decode, encode};
+use octowrap_format::{DecodeError, DecodeOptions, EncodeOptions, Limits, Quantization, decode, encode};
 use octowrap_mesh::Hierarchy;
 
 fn strict() -> DecodeOptions {
@@ -52,8 +52,8 @@ fn every_prefix_fails_cleanly() {
     for bytes in samples() {
         for n in 0..bytes.len() {
             match decode(&bytes[..n], &strict()) {
-                Err(Error::Truncated { .. }) => {}
-                Err(e) if n < 8 => assert!(matches!(e, Error::BadMagic { .. }) || n == 0, "{n}: {e}"),
+                Err(DecodeError::Truncated { .. }) => {}
+                Err(e) if n < 8 => assert!(matches!(e, DecodeError::BadMagic { .. }) || n == 0, "{n}: {e}"),
                 other => panic!("prefix of {n} bytes: expected Truncated, got {other:?}"),
             }
         }
@@ -71,12 +71,12 @@ fn every_bit_flip_is_caught_or_harmless() {
                 match decode(&flipped[..], &strict()) {
                     Ok(f) => assert_eq!(f.hierarchy, good.hierarchy, "byte {i} bit {bit}: decoded differently"),
                     Err(
-                        Error::ChecksumMismatch { .. }
-                        | Error::BadMagic { .. }
-                        | Error::UnsupportedVersion { .. }
-                        | Error::Invalid { .. }
-                        | Error::LimitExceeded { .. }
-                        | Error::Truncated { .. },
+                        DecodeError::ChecksumMismatch { .. }
+                        | DecodeError::BadMagic { .. }
+                        | DecodeError::UnsupportedVersion { .. }
+                        | DecodeError::Invalid { .. }
+                        | DecodeError::LimitExceeded { .. }
+                        | DecodeError::Truncated { .. },
                     ) => {}
                     Err(e) => panic!("byte {i} bit {bit}: unexpected {e}"),
                 }
@@ -138,4 +138,148 @@ fn mutated_payloads_never_panic() {
         }
     }
     assert!(caught > 0);
+}
+
+/// Runs the calling test again in a child process whose address space is capped at `mib` MiB, so
+/// that an allocation the input cannot justify aborts the child and fails the test. Returns `true`
+/// in the child (run the body), `false` in the parent (done).
+fn in_capped_child(test: &str, mib: u64) -> bool {
+    if std::env::var_os("OCTOWRAP_CAPPED_CHILD").is_some() {
+        return true;
+    }
+    let exe = std::env::current_exe().expect("test binary");
+    let script = format!("ulimit -v {} && exec \"$0\" --exact {test} --test-threads 1 --nocapture", mib * 1024);
+    match std::process::Command::new("sh").arg("-c").arg(script).arg(exe).env("OCTOWRAP_CAPPED_CHILD", "1").output() {
+        Ok(out) => assert!(
+            out.status.success(),
+            "{test} under a {mib} MiB address-space cap: {}\n{}{}",
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+        #[allow(clippy::print_stderr)] // a test that cannot run says so
+        Err(e) => eprintln!("SKIPPED {test}: cannot run sh to cap memory ({e})"),
+    }
+    false
+}
+
+/// Offset of a level block header's `vertex_count`, `face_count` and `corner_count` (spec §4.1).
+const COUNT_AT: [usize; 3] = [4, 8, 12];
+
+#[test]
+fn counts_beyond_what_the_streams_hold_fail_at_the_count() {
+    use octowrap_format::Where;
+    use octowrap_format::fuzzing::{payloads, reseal};
+    if !in_capped_child("counts_beyond_what_the_streams_hold_fail_at_the_count", 1024) {
+        return;
+    }
+    // 2^28 is within the default limits: only the streams can tell that the count is a lie.
+    let huge = 1u32 << 28;
+    for bytes in samples() {
+        let good = payloads(&bytes).unwrap();
+        let table: Vec<(u32, u32, u32)> = decode(&bytes[..], &DecodeOptions::default())
+            .unwrap()
+            .info
+            .levels
+            .iter()
+            .map(|l| (l.vertex_count, l.face_count, l.corner_count))
+            .collect();
+        for k in 0..good.len() {
+            for (i, at) in COUNT_AT.into_iter().enumerate() {
+                let mut p = good.clone();
+                p[k][at..at + 4].copy_from_slice(&huge.to_le_bytes());
+                let mut counts = table.clone();
+                let c = &mut counts[k];
+                *[&mut c.0, &mut c.1, &mut c.2][i] = huge;
+                let file = reseal(&bytes, &p, Some(&counts)).unwrap();
+                let start = std::time::Instant::now();
+                match decode(&file[..], &DecodeOptions::default()) {
+                    Err(DecodeError::Invalid { place: Where::Payload(kk), offset, .. }) => {
+                        assert_eq!((kk, offset), (k as u32, at as u64), "level {k} count {i}");
+                    }
+                    other => panic!("level {k} count {i}: expected Invalid at payload byte {at}, got {other:?}"),
+                }
+                assert!(start.elapsed().as_secs() < 5, "level {k} count {i}: took {:?}", start.elapsed());
+            }
+        }
+    }
+}
+
+#[test]
+fn a_frame_that_expands_hugely_fails_at_its_block_header() {
+    use octowrap_format::Where;
+    use octowrap_format::tamper::replace_stored;
+    use std::io::Write;
+    if !in_capped_child("a_frame_that_expands_hugely_fails_at_its_block_header", 768) {
+        return;
+    }
+    // One GiB of zeros (within the default 4 GiB per level) in a frame of a few tens of KB: its
+    // block header says every stream is empty, so 64 decompressed bytes suffice to reject it.
+    let raw = 1u64 << 30;
+    let mut enc = zstd::stream::Encoder::new(Vec::new(), 1).unwrap();
+    enc.include_contentsize(true).unwrap();
+    enc.set_pledged_src_size(Some(raw)).unwrap();
+    let zeros = vec![0u8; 1 << 20];
+    for _ in 0..raw >> 20 {
+        enc.write_all(&zeros).unwrap();
+    }
+    let frame = enc.finish().unwrap();
+    assert!(frame.len() < 200_000, "{} bytes", frame.len());
+    let base = encode(&Hierarchy::single(polygon_mesh(0, 0, 1)), &EncodeOptions::default()).unwrap();
+    let file = replace_stored(&base, 0, &frame, raw).unwrap();
+    let start = std::time::Instant::now();
+    match decode(&file[..], &DecodeOptions::default()) {
+        Err(DecodeError::Invalid { place: Where::Payload(0), offset: 16, .. }) => {}
+        other => panic!("expected Invalid at the block header's stream sizes, got {other:?}"),
+    }
+    assert!(start.elapsed().as_secs() < 2, "took {:?}", start.elapsed());
+}
+
+#[test]
+fn bytes_after_a_frame_or_after_the_last_level_are_rejected() {
+    use octowrap_format::fuzzing::payloads;
+    use octowrap_format::tamper::replace_stored;
+    for bytes in samples() {
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(
+            matches!(
+                decode(&longer[..], &DecodeOptions::default()),
+                Err(DecodeError::Invalid { what: "end of file", .. })
+            ),
+            "a byte after the last level"
+        );
+        // A skippable zstd frame after level 0's frame, inside its stored bytes.
+        let info = decode(&bytes[..], &DecodeOptions::default()).unwrap().info;
+        let l0 = &info.levels[0];
+        let mut stored = bytes[l0.offset as usize..(l0.offset + l0.stored_size) as usize].to_vec();
+        stored.extend(0x184D_2A50u32.to_le_bytes());
+        stored.extend(0u32.to_le_bytes());
+        let file = replace_stored(&bytes, 0, &stored, l0.raw_size).unwrap();
+        assert_eq!(payloads(&bytes).unwrap().len(), info.levels.len());
+        assert!(
+            matches!(decode(&file[..], &DecodeOptions::default()), Err(DecodeError::Zstd { level: 0, .. })),
+            "a skippable frame after level 0's frame"
+        );
+    }
+}
+
+#[test]
+fn vertices_that_cost_no_bytes_are_bounded_by_the_limits() {
+    use octowrap_format::fuzzing::reseal;
+    // A base level of 2^21 vertices at the origin and no faces: three zero-plane blocks (spec
+    // §6.1) hold them all, so only `Limits` can refuse them.
+    let nv = 1u32 << 21;
+    let mut payload = vec![0u8; 64];
+    payload[4..8].copy_from_slice(&nv.to_le_bytes());
+    payload[16 + 4 * 11..20 + 4 * 11].copy_from_slice(&3u32.to_le_bytes());
+    payload.extend([0, 0, 0]);
+    let base = encode(&Hierarchy::single(polygon_mesh(3, 1, 1)), &EncodeOptions::default()).unwrap();
+    let file = reseal(&base, &[payload], Some(&[(nv, 0, 0)])).unwrap();
+    match decode(&file[..], &strict()) {
+        Err(DecodeError::LimitExceeded { what: "vertex_count", value, .. }) => assert_eq!(value, u64::from(nv)),
+        other => panic!("expected LimitExceeded, got {other:?}"),
+    }
+    let f = decode(&file[..], &DecodeOptions::default()).unwrap();
+    assert_eq!(f.hierarchy.levels[0].mesh.vertices.len(), nv as usize);
 }

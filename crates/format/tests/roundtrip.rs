@@ -3,7 +3,7 @@
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::{
-    DecodeOptions, EncodeOptions, Error, Quantization, canonical, decode, encode, encode_with_stats, read_info,
+    DecodeError, DecodeOptions, EncodeOptions, Quantization, canonical, decode, encode, encode_with_stats, read_info,
 };
 use octowrap_mesh::{Hierarchy, Mesh};
 
@@ -109,7 +109,7 @@ fn partial_decoding_reads_only_the_prefix() {
         let full = decode(&bytes[..], &DecodeOptions::default()).unwrap();
         assert_eq!(f.hierarchy.levels[..], full.hierarchy.levels[..=k as usize]);
     }
-    assert!(matches!(decode(&bytes[..], &DecodeOptions::up_to(5)), Err(Error::NoSuchLevel { .. })));
+    assert!(matches!(decode(&bytes[..], &DecodeOptions::up_to(5)), Err(DecodeError::NoSuchLevel { .. })));
 }
 
 #[test]

@@ -14,6 +14,7 @@
 //! precision through every round trip. Algorithms that want speed may convert to a local `f32`
 //! frame internally; they state it in their own docs.
 
+pub mod cell;
 pub mod morton;
 
 mod aabb;

@@ -108,21 +108,19 @@ pub(crate) fn block(code: u64, level: u32) -> [Option<u64>; 27] {
     })
 }
 
-/// In-plane corner offsets `(b, c)` of a face on a positive / negative side, counter-clockwise
-/// seen from outside (so the right-hand normal is the side's direction).
-const POS: [[u32; 2]; 4] = [[0, 0], [1, 0], [1, 1], [0, 1]];
-const NEG: [[u32; 2]; 4] = [[0, 0], [0, 1], [1, 1], [1, 0]];
-
 /// The two in-plane axes `(b, c)` of a face on `axis` (cyclic, so `b x c = axis`).
 #[inline]
 pub(crate) fn plane_axes(axis: usize) -> (usize, usize) {
     ((axis + 1) % 3, (axis + 2) % 3)
 }
 
-/// In-plane offsets of corner `k` of a face on `side`.
+/// In-plane offsets `(b, c)` of corner `k` of a face on `side`, in the corner order of
+/// [`octowrap_geom::cell`] (counter-clockwise seen from outside).
 #[inline]
 pub(crate) fn corner_offset(side: Side, k: usize) -> [u32; 2] {
-    if sign(side) > 0 { POS[k & 3] } else { NEG[k & 3] }
+    let (b, c) = plane_axes(axis(side));
+    let p = octowrap_geom::cell::SIDE_CORNERS[usize::from(side)][k & 3];
+    [p[b], p[c]]
 }
 
 /// The four lattice corners (in `[0, 2^level]^3`) of the face `(voxel, side)`, in order.

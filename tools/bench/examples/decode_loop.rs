@@ -1,5 +1,6 @@
 //! Decodes MRQ files many times (for profiling) and prints a digest of each decoded hierarchy (for
-//! checking that a decoder change keeps the output): `decode_loop [-n N] FILE.mrq...`.
+//! checking that a decoder change keeps the output):
+//! `cargo run --release -p octowrap-bench --example decode_loop -- [-n N] FILE.mrq...`.
 #![allow(clippy::print_stdout)]
 
 use std::hash::{Hash, Hasher};

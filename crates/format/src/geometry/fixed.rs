@@ -1,11 +1,9 @@
-//! Format version 3's lattice refinement, level mode 3 (spec §5.9, §6.8): the topology and
-//! geometry of mode 2 redesigned for decoding speed.
-//!
-//! Why: a version 2 lattice level costs its decoder about 2,000 instructions per vertex (see
-//! `tools/bench/RESULTS.md`), mostly for rules of the format itself: ranking every corner's
-//! predicted name among the sorted names of the level (§5.5), binary64 predictors (§6.3, §6.6) and
-//! averaged biases of all neighbours (§6.2). Mode 3 keeps mode 2's face streams (child masks,
-//! depth bits, created-face keys, rotation bytes: the same bits) and changes the rest:
+//! Geometry of mode 3 (spec §6.8 Geometry of mode 3): integer prediction from the decoded parent
+//! alone, for decoding speed. A version 2 lattice level spends most of its decoder's work on rules
+//! of the format itself: ranking every corner's predicted name among the sorted names of the level
+//! (§5.5), binary64 predictors (§6.3, §6.6) and averaged biases of all neighbours (§6.2). Mode 3
+//! keeps mode 2's face streams (child masks, depth bits, created-face keys, rotation bytes: the same
+//! bits) and changes the rest:
 //!
 //! * **Vertices are numbered by first use** in corner order. A corner's predicted lattice key finds
 //!   its vertex in a per-level open-addressing table (a lookup, no sort, no ranking); keys with
@@ -21,17 +19,15 @@
 //! Encoder, decoder and line placement share [`fast_pass`] and [`contexts`], so they cannot
 //! disagree on a prediction.
 
-use crate::bytes::Reader;
-use crate::decode::ROTATIONS;
-use crate::error::Error;
-use crate::lattice::{self, CornerKeys};
-use crate::level::{GRID_LIMIT, NO_PARENT, NO_POS, NONE};
+use crate::geometry::predict::GRID_LIMIT;
+use crate::topology::ROTATIONS;
+use crate::topology::{NO_PARENT, NO_POS, NONE};
 
 /// Fraction bits of a mode 3 line direction (spec §6.8).
 pub const DIRECTION_FRACTION_BITS: u32 = 12;
 
 /// In-plane offsets `(u, w)` of a slot's canonical corners (spec §5.3).
-const OFFSETS: [(u8, u8); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
+pub const OFFSETS: [(u8, u8); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
 /// Bilinear weights of the parent's canonical corners at stencil position `(a, b)`, `a, b` in
 /// `0..3`, indexed `3 a + b` (spec §6.3's `(2-a)(2-b), a(2-b), ab, (2-a)b`).
@@ -93,7 +89,7 @@ impl FixedLine {
         let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
         for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
             let Ok(j) = i64::try_from(j) else { continue };
-            if j.abs() <= crate::level::LINE_PARAM_LIMIT && self.point(j) == q {
+            if j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q {
                 return Some(j);
             }
         }
@@ -152,6 +148,16 @@ pub struct Contexts {
 }
 
 impl Contexts {
+    /// Every one of `nv` vertices without a first corner or a context.
+    pub fn reset(&mut self, nv: usize) {
+        self.first.clear();
+        self.first.resize(nv, NONE);
+        self.face.clear();
+        self.face.resize(nv, NONE);
+        self.stencil.clear();
+        self.stencil.resize(nv, 0);
+    }
+
     /// Bytes held.
     pub fn capacity_bytes(&self) -> usize {
         self.first.capacity() * 4 + self.face.capacity() * 4 + self.stencil.capacity()
@@ -170,12 +176,7 @@ pub fn contexts(
     nv: usize,
     out: &mut Contexts,
 ) {
-    out.first.clear();
-    out.first.resize(nv, NONE);
-    out.face.clear();
-    out.face.resize(nv, NONE);
-    out.stencil.clear();
-    out.stencil.resize(nv, 0);
+    out.reset(nv);
     for (c, &v) in indices.iter().enumerate() {
         let v = v as usize;
         if out.first[v] == NONE {
@@ -279,7 +280,7 @@ fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i
     let u = fl.u;
     let dot = (s[0] - 4 * l[0]) * u[0] + (s[1] - 4 * l[1]) * u[1] + (s[2] - 4 * l[2]) * u[2];
     let jp = ((i128::from(dot) * i128::from(fl.recip) + (1 << 61)) >> 62) as i64;
-    (l, jp.clamp(-crate::level::LINE_PARAM_LIMIT, crate::level::LINE_PARAM_LIMIT))
+    (l, jp.clamp(-crate::block::LINE_PARAM_LIMIT, crate::block::LINE_PARAM_LIMIT))
 }
 
 /// The predicted point of a pass A vertex (spec §6.8): `clamp(line(jpred))` (the origin itself
@@ -362,7 +363,7 @@ pub fn decode_pass(
     parent_directions(t.parent_quads, pq, t.line_shift, dirs);
     let unz = |x: u32| i64::from(x >> 1) ^ -i64::from(x & 1);
     let half = 1i64 << (DIRECTION_FRACTION_BITS - 1);
-    let limit = crate::level::LINE_PARAM_LIMIT;
+    let limit = crate::block::LINE_PARAM_LIMIT;
     // Pass A, written out (no closure: its captures would live in memory).
     let mut missing = false;
     let (mut il, mut io) = (0usize, 0usize);
@@ -470,230 +471,6 @@ pub fn fast_pass<E>(
         q[v] = step(v, &FastPrediction { point: base, line, param: 0 })?;
     }
     Ok(())
-}
-
-/// The decoder's buffers for [`resolve`], reused from level to level.
-#[derive(Default)]
-pub struct ResolveScratch {
-    /// Open-addressing table: `key + 1` (0: empty).
-    keys: Vec<u64>,
-    /// Per table entry: the key's vertex, or `SPLIT | split index`.
-    values: Vec<u32>,
-    /// Vertices of each split key, in numbering order.
-    split_vertices: Vec<Vec<u32>>,
-}
-
-impl ResolveScratch {
-    /// Bytes held.
-    pub fn capacity_bytes(&self) -> usize {
-        self.keys.capacity() * 8 + self.values.capacity() * 4
-    }
-}
-
-const SPLIT: u32 = 1 << 31;
-
-/// The home entry of `key` in a table of `mask + 1` (a power of two, at least 2) entries: the top
-/// bits of a multiplicative hash (the best mixed ones; lattice keys are very regular).
-#[inline]
-fn slot_of(key: u64, mask: usize) -> usize {
-    (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> (mask as u64).leading_zeros()) as usize & mask
-}
-
-/// Finds `key`'s table entry, or the empty entry where it would go.
-#[inline]
-fn probe(keys: &[u64], key: u64, mask: usize) -> usize {
-    let mut i = slot_of(key, mask);
-    loop {
-        let k = keys[i];
-        if k == key + 1 || k == 0 {
-            return i;
-        }
-        i = (i + 1) & mask;
-    }
-}
-
-/// The streams [`resolve`] reads.
-pub struct ResolveStreams<'s, 'a> {
-    /// `splits`.
-    pub splits: &'s mut Reader<'a>,
-    /// `exceptions`.
-    pub exceptions: &'s mut Reader<'a>,
-    /// `choices`.
-    pub choices: &'s mut Reader<'a>,
-    /// `extra_names`.
-    pub extras: &'s mut Reader<'a>,
-}
-
-/// What [`resolve`] reads of the level's faces: per face its parent and quadrant, per parent face
-/// its canonical quad and orientation.
-pub type LevelFaces<'a> = (&'a [u32], &'a [u8], &'a [([u32; 4], u8)]);
-
-#[allow(clippy::too_many_lines, clippy::too_many_arguments)] // spec §5.9 in order
-/// Corner resolution of mode 3 (spec §5.9): `pred[c]` is corner `c`'s predicted lattice key
-/// (depth `k`, valid); fills `indices` (corner to vertex, first-use numbering), clears `pos[c]` at
-/// exception corners (and `rotation_hints` of their faces), and returns every vertex's lattice
-/// corner.
-pub fn resolve(
-    k: u32,
-    nv: usize,
-    pred: &[u64],
-    pos: &mut [u8],
-    indices: &mut [u32],
-    st: ResolveStreams<'_, '_>,
-    scratch: &mut ResolveScratch,
-    (parents, quadrants, parent_quads): LevelFaces<'_>,
-    ctx: &mut Contexts,
-    rotation_hints: &mut [u8],
-) -> Result<Vec<[u32; 3]>, Error> {
-    let nc = pred.len();
-    // The contexts of [`contexts`], found on the way (the decoder needs no second pass).
-    ctx.first.clear();
-    ctx.first.resize(nv, NONE);
-    ctx.face.clear();
-    ctx.face.resize(nv, NONE);
-    ctx.stencil.clear();
-    ctx.stencil.resize(nv, 0);
-    let (mut fpf, mut fu, mut fw) = (NONE, 0u8, 0u8);
-    let keys_at = CornerKeys::new(k);
-    let valid = |key: u64| lattice::corner_from_key(key, k).is_some();
-    // Split keys: a gap list (strictly increasing), each valid.
-    let r = st.splits;
-    let ns = r.varint_max(nc as u64, "split key count")? as usize;
-    if ns > r.remaining() {
-        return Err(r.invalid(format!("{ns} split keys do not fit in the stream")));
-    }
-    let cap = (2 * (nv + ns) + 2).next_power_of_two();
-    let mask = cap - 1;
-    let ResolveScratch { keys, values, split_vertices } = scratch;
-    keys.clear();
-    keys.resize(cap, 0);
-    values.clear();
-    values.resize(cap, 0);
-    split_vertices.clear();
-    let mut key = 0u64;
-    for i in 0..ns {
-        let gap = r.varint()?;
-        key = if i == 0 { Some(gap) } else { key.checked_add(1).and_then(|x| x.checked_add(gap)) }
-            .filter(|&x| valid(x))
-            .ok_or_else(|| r.invalid(format!("split key {i} is not a lattice corner of level {k}")))?;
-        let e = probe(keys, key, mask);
-        keys[e] = key + 1;
-        values[e] = SPLIT | i as u32;
-        split_vertices.push(Vec::new());
-    }
-    let mut corners: Vec<[u32; 3]> = Vec::with_capacity(nv);
-    // Registers a new vertex under `key` (spec §5.9: every numbered vertex is found by its key).
-    let e = st.exceptions;
-    let nexc = e.varint_max(nc as u64, "exception count")? as usize;
-    let mut exc_left = nexc;
-    let mut next_exc = if nexc > 0 { e.varint_max(nc as u64, "exception position")? as usize } else { usize::MAX };
-    let ch = st.choices;
-    let too_many = |r: &Reader<'_>| r.invalid(format!("corners number more than vertex_count ({nv}) vertices"));
-    for c in 0..nc {
-        if c % 4 == 0 {
-            // A new face: its parent and the in-plane offsets of its quadrant's corner.
-            let f = c / 4;
-            fpf = parents[f];
-            if fpf != NO_PARENT {
-                let t = ROTATIONS[usize::from(parent_quads[fpf as usize].1 & 7)][usize::from(quadrants[f] & 3)];
-                (fu, fw) = OFFSETS[usize::from(t)];
-            }
-        }
-        if c == next_exc {
-            let next = corners.len();
-            let v = e.varint_max(next as u64, "exception vertex")? as usize;
-            if v == next {
-                if next == nv {
-                    return Err(too_many(e));
-                }
-                let d = crate::bytes::unzigzag(e.varint()?);
-                let key = pred[c]
-                    .checked_add_signed(d)
-                    .filter(|&x| valid(x))
-                    .ok_or_else(|| e.invalid(format!("exception key at corner {c} is not a lattice corner")))?;
-                let slot = probe(keys, key, mask);
-                if keys[slot] == 0 {
-                    keys[slot] = key + 1;
-                    values[slot] = v as u32;
-                } else if values[slot] & SPLIT != 0 {
-                    split_vertices[(values[slot] & !SPLIT) as usize].push(v as u32);
-                } else {
-                    return Err(e.invalid(format!("two vertices at key {key}, which is not a split key")));
-                }
-                corners.push(keys_at.corner(key));
-                ctx.first[v] = c as u32;
-            }
-            indices[c] = v as u32;
-            pos[c] = NO_POS;
-            // The face's corners no longer all sit on its slot's canonical corners.
-            rotation_hints[c / 4] = u8::MAX;
-            exc_left -= 1;
-            next_exc = if exc_left > 0 {
-                let gap = e.varint_max(nc as u64, "exception position gap")? as usize;
-                c + 1 + gap
-            } else {
-                usize::MAX
-            };
-            continue;
-        }
-        let key = pred[c];
-        let slot = probe(keys, key, mask);
-        let v = if keys[slot] == 0 {
-            let v = corners.len();
-            if v == nv {
-                return Err(too_many(ch));
-            }
-            keys[slot] = key + 1;
-            values[slot] = v as u32;
-            corners.push(keys_at.corner(key));
-            ctx.first[v] = c as u32;
-            v as u32
-        } else if values[slot] & SPLIT == 0 {
-            values[slot]
-        } else {
-            let list = &mut split_vertices[(values[slot] & !SPLIT) as usize];
-            let o = ch.varint_max(list.len() as u64, "choice")? as usize;
-            if o == list.len() {
-                let v = corners.len();
-                if v == nv {
-                    return Err(too_many(ch));
-                }
-                list.push(v as u32);
-                corners.push(keys_at.corner(key));
-                ctx.first[v] = c as u32;
-                v as u32
-            } else {
-                list[o]
-            }
-        };
-        indices[c] = v;
-        let sp = pos[c];
-        if sp != NO_POS && ctx.face[v as usize] == NONE {
-            let (eu, ew) = OFFSETS[usize::from(sp & 3)];
-            ctx.face[v as usize] = fpf;
-            ctx.stencil[v as usize] = 3 * (fu + eu) + (fw + ew);
-        }
-    }
-    if next_exc != usize::MAX {
-        return Err(e.invalid(format!("exception position {next_exc} is beyond the corners")));
-    }
-    // Vertices no corner uses: their keys as zigzag deltas.
-    let r = st.extras;
-    let left = nv - corners.len();
-    let n = r.varint_max(left as u64, "extra vertex count")? as usize;
-    if n != left {
-        return Err(r.invalid(format!("{} vertices numbered and {n} extra, vertex_count is {nv}", corners.len())));
-    }
-    let mut key = 0u64;
-    for _ in 0..n {
-        let d = crate::bytes::unzigzag(r.varint()?);
-        key = key
-            .checked_add_signed(d)
-            .filter(|&x| valid(x))
-            .ok_or_else(|| r.invalid("extra vertex key is not a lattice corner"))?;
-        corners.push(keys_at.corner(key));
-    }
-    Ok(corners)
 }
 
 #[cfg(test)]

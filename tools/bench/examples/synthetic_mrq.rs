@@ -1,6 +1,6 @@
 //! Writes a synthetic hierarchy (`octowrap_format::synthetic::cube_hierarchy`, placed on its
 //! prediction lines) as a 12-bit MRQ file, for profiling the decoder on large inputs:
-//! `synthetic_mrq LEVELS OUT.mrq`.
+//! `cargo run --release -p octowrap-bench --example synthetic_mrq -- LEVELS OUT.mrq`.
 #![allow(clippy::print_stdout)]
 
 use octowrap_format::synthetic::{Edits, cube_hierarchy};

@@ -1,24 +1,21 @@
-//! Line placement: the encoder side of the one-number geometry of spec §6.6.
-//!
-//! Source: `docs/format-notes.md`, "A co-design worth trying: exact one-number geometry". A
-//! refinement level's vertex with a parent context has a *prediction line* that the decoder
-//! derives from the decoded parent alone (the base prediction of §6.3 / §6.4 and the parent face's
-//! normal). A vertex that lies on its line costs one number (its parameter along the line) instead
+//! Line placement (spec §6.6 Line geometry, §8 Encoder requirements and advice): the encoder side
+//! of one-number geometry, a co-design with reconstruction. A refinement level's vertex with a
+//! parent context has a *prediction line* that the decoder derives from the decoded parent alone
+//! (the base prediction of §6.3 / §6.4 and the parent face's normal). A vertex that lies on its line costs one number (its parameter along the line) instead
 //! of three residuals. [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines,
 //! coarse to fine, each along its own tangent plane, so that the surface barely moves and the file
 //! still stores exactly what the caller holds (every moved vertex sits on a grid point).
 
 use octowrap_mesh::{Aabb, DVec3, FaceList, Hierarchy, Mesh};
 
-use crate::decode::PlainLevel;
-use crate::encode::{self, Encoded};
+use crate::EncodeOptions;
+use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
+use crate::encoder::{Grid, choose_grid, input_level};
 use crate::error::EncodeError;
-use crate::fast::{self, FixedLine};
-use crate::level::{
-    GRID_LIMIT, GeometryScratch, LINE_PARAM_LIMIT, Line, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL,
-    Topo, geometry_pass,
-};
-use crate::{EncodeOptions, Grid, choose_grid, input_level};
+use crate::geometry::fixed::{self as fast, FixedLine};
+use crate::geometry::predict::{GRID_LIMIT, GeometryScratch, Line, Topo, geometry_pass};
+use crate::level_decode::PlainLevel;
+use crate::level_encode::{self as encode, Encoded};
 
 /// What [`place_on_prediction_lines`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -1,47 +1,18 @@
-//! Octree lattice geometry of spec §5.2: slot keys, corner keys, the canonical corner order of a
-//! slot, and the child slot under a parent quadrant.
+//! Octree lattice keys of spec §5.3 (Lattice refinement) and §5.8 (Raw lattice): slot keys, corner
+//! keys, the child slot under a parent quadrant, and the raw lattice stream in both directions. A
+//! slot's canonical corner order is `octowrap_geom::cell`'s.
+
+use octowrap_geom::cell::{SIDE_CORNER_UW, side_axis as normal_axis, side_is_positive as positive};
+pub use octowrap_geom::cell::{side_corners as slot_corners, side_plane_axes as plane_axes};
+
+use crate::block::s;
+use crate::bytes::{Reader, put_varint, unzigzag, zigzag};
+use crate::error::DecodeError;
+use crate::level_decode::PlainLevel;
+use crate::level_encode::Streams;
 
 /// The deepest level whose lattice a file may name (keys then fit in 64 bits with room to spare).
 pub const MAX_LATTICE_DEPTH: u32 = 20;
-
-/// In-plane axes `(u, w)` of each side, chosen so that `u × w` points along the side's outward
-/// normal: sides `0..6` are `+X, -X, +Y, -Y, +Z, -Z`.
-const PLANE_AXES: [(usize, usize); 6] = [(1, 2), (2, 1), (2, 0), (0, 2), (0, 1), (1, 0)];
-
-/// Normal axis of a side.
-pub fn normal_axis(side: u8) -> usize {
-    usize::from(side / 2)
-}
-
-/// Whether a side faces the positive direction of its axis.
-pub fn positive(side: u8) -> bool {
-    side % 2 == 0
-}
-
-/// In-plane axes of a side.
-pub fn plane_axes(side: u8) -> (usize, usize) {
-    PLANE_AXES[usize::from(side)]
-}
-
-/// The four lattice corners of slot `(voxel, side)`, counter-clockwise seen from outside:
-/// `(u, w)` offsets `(0,0), (1,0), (1,1), (0,1)` on the face plane.
-pub fn slot_corners(voxel: [u32; 3], side: u8) -> [[u32; 3]; 4] {
-    let n = normal_axis(side);
-    let (u, w) = plane_axes(side);
-    let mut base = voxel;
-    if positive(side) {
-        base[n] += 1;
-    }
-    let mut out = [base; 4];
-    out[1][u] += 1;
-    out[2][u] += 1;
-    out[2][w] += 1;
-    out[3][w] += 1;
-    out
-}
-
-/// The four in-plane offsets `(u, w)` of a slot's canonical corners (spec §5.3).
-const CORNER_OFFSETS: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
 /// The corner keys (depth `depth`) of the four canonical corners of slot `(voxel, side)`, in
 /// canonical order: [`corner_key`] of [`slot_corners`], with two multiplications instead of eight.
@@ -67,7 +38,7 @@ pub fn slot_corner_keys(voxel: [u32; 3], side: u8, depth: u32) -> [u64; 4] {
 pub fn child_slot_at(voxel: [u32; 3], side: u8, cp: usize, inner: bool) -> ([u32; 3], u8) {
     let n = normal_axis(side);
     let (u, w) = plane_axes(side);
-    let (du, dw) = CORNER_OFFSETS[cp & 3];
+    let (du, dw) = SIDE_CORNER_UW[cp & 3];
     let mut child = [0u32; 3];
     child[u] = 2 * voxel[u] + du;
     child[w] = 2 * voxel[w] + dw;
@@ -218,6 +189,58 @@ pub fn child_slot(voxel: [u32; 3], side: u8, corner: [u32; 3], inner: bool) -> O
 pub fn lattice_point(c: [u32; 3], depth: u32, bits: u32) -> [i64; 3] {
     let at = |x: u32| ((u64::from(x) << bits) >> depth) as i64;
     [at(c[0]), at(c[1]), at(c[2])]
+}
+
+/// A face's slot: its voxel and side (spec §5.3).
+pub type Slot = ([u32; 3], u8);
+
+/// Reads the raw lattice coordinates of a mode 0 or 1 level of depth `k` (spec §5.8 Raw
+/// lattice): `nf` slot keys, then `nv` corner keys, each list as zigzag deltas.
+pub fn decode_raw_lattice(
+    r: &mut Reader<'_>,
+    k: u32,
+    nf: usize,
+    nv: usize,
+) -> Result<(Vec<Slot>, Vec<[u32; 3]>), DecodeError> {
+    let mut slots = Vec::with_capacity(nf);
+    let mut key = 0i64;
+    for _ in 0..nf {
+        key = key.wrapping_add(unzigzag(r.varint()?));
+        let slot = u64::try_from(key)
+            .ok()
+            .and_then(|x| slot_from_key(x, k))
+            .ok_or_else(|| r.invalid(format!("slot key {key} outside level {k}")))?;
+        slots.push(slot);
+    }
+    let mut corners = Vec::with_capacity(nv);
+    key = 0;
+    for _ in 0..nv {
+        key = key.wrapping_add(unzigzag(r.varint()?));
+        let c = u64::try_from(key)
+            .ok()
+            .and_then(|x| corner_from_key(x, k))
+            .ok_or_else(|| r.invalid(format!("corner key {key} outside level {k}")))?;
+        corners.push(c);
+    }
+    Ok((slots, corners))
+}
+
+/// Writes a mode 0 or 1 level's lattice coordinates (§5.8): its slot keys, then its corner
+/// keys, each list as zigzag deltas.
+pub fn encode_raw_lattice(st: &mut Streams, level: &PlainLevel, k: u32) {
+    let r = &mut st.0[s::RAW_LATTICE];
+    let mut prev = 0i64;
+    for &(v, d) in level.slots.as_deref().unwrap_or_default() {
+        let key = slot_key(v, d, k) as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+    }
+    prev = 0;
+    for &c in level.corners.as_deref().unwrap_or_default() {
+        let key = corner_key(c, k) as i64;
+        put_varint(r, zigzag(key - prev));
+        prev = key;
+    }
 }
 
 #[cfg(test)]

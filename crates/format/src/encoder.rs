@@ -1,0 +1,264 @@
+//! The encoder's file assembly (spec §3 File structure, §8 Encoder requirements): the
+//! quantization grid, the levels coded coarse to fine against their decoded parents, and the
+//! container around them.
+
+use std::io::Write;
+
+use octowrap_mesh::{Aabb, DVec3, FaceOrigin, Hierarchy};
+use xxhash_rust::xxh3::xxh3_64;
+
+use crate::container::{
+    self, ENTRY_SIZE, FLAG_CUBE, FLAG_EXACT, FLAG_TIED, FileHeader, HEADER_SIZE, LevelEntry, MAGIC, Preamble,
+};
+use crate::error::EncodeError;
+use crate::level_decode::PlainLevel;
+use crate::level_encode::{self, InputLevel};
+use crate::topology::NO_PARENT;
+use crate::{EncodeOptions, FORMAT_VERSION, LevelStats, MAX_GRID_BITS, Quantization, geometry};
+
+/// The quantization grid of a file (spec §3.1: `EXACT`, `TIED`, `grid_bits`, `origin`, `step`).
+pub struct Grid {
+    /// Positions stored exactly (no grid).
+    pub exact: bool,
+    /// The grid is tied to the cube.
+    pub tied: bool,
+    /// `grid_bits`.
+    pub bits: u32,
+    /// World position of grid point (0, 0, 0).
+    pub origin: DVec3,
+    /// Grid step in world units.
+    pub step: f64,
+}
+
+impl Grid {
+    /// Grid coordinates of `p`, rounded to the nearest grid point (not range-checked).
+    pub fn quantize(&self, p: DVec3) -> DVec3 {
+        ((p - self.origin) / self.step).round()
+    }
+
+    /// The world position of grid point `q` (spec §6.7), as the decoder computes it.
+    pub fn position(&self, q: [i64; 3]) -> DVec3 {
+        self.origin + DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) * self.step
+    }
+}
+
+pub fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> {
+    let exact = Grid { exact: true, tied: false, bits: 0, origin: DVec3::ZERO, step: 0.0 };
+    let bounds = || {
+        let mut b = Aabb::EMPTY;
+        for l in &h.levels {
+            for p in &l.mesh.vertices.positions {
+                b.grow(*p);
+            }
+        }
+        if b.is_empty() { Aabb { min: DVec3::ZERO, max: DVec3::ZERO } } else { b }
+    };
+    match q {
+        Quantization::Exact => Ok(exact),
+        Quantization::Bits(bits) => {
+            if !(1..=MAX_GRID_BITS).contains(&bits) {
+                return Err(EncodeError::Options(format!("quantization bits must be 1..={MAX_GRID_BITS}, got {bits}")));
+            }
+            if let Some(c) = h.cube.filter(|c| !c.is_empty() && c.size().max_element() > 0.0) {
+                let edge = c.size().max_element();
+                Ok(Grid { exact: false, tied: true, bits, origin: c.min, step: edge / f64::from(1u32 << bits) })
+            } else {
+                let b = bounds();
+                let ext = b.size().max_element();
+                let step = if ext > 0.0 { ext / f64::from((1u32 << bits) - 1).max(1.0) } else { 1.0 };
+                Ok(Grid { exact: false, tied: false, bits, origin: b.min, step })
+            }
+        }
+        Quantization::Step(step) => {
+            if !(step.is_finite() && step > 0.0) {
+                return Err(EncodeError::Options(format!("the step must be positive and finite, got {step}")));
+            }
+            let origin = h.cube.filter(|c| !c.is_empty()).map_or_else(|| bounds().min, |c| c.min);
+            Ok(Grid { exact: false, tied: false, bits: 0, origin, step })
+        }
+    }
+}
+
+/// Fails unless `opts.version` is a version this crate writes (2 or 3).
+fn check_version(opts: &EncodeOptions) -> Result<(), EncodeError> {
+    if !(2..=FORMAT_VERSION).contains(&opts.version) {
+        return Err(EncodeError::Options(format!(
+            "format version {} cannot be written (2..={FORMAT_VERSION})",
+            opts.version
+        )));
+    }
+    Ok(())
+}
+
+/// Encodes `h` into a byte vector. See [`encode_to`].
+pub fn encode(h: &Hierarchy, opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
+    Ok(encode_inner(h, opts)?.0)
+}
+
+/// Encodes `h` and reports per-level sizes (for benchmarks).
+pub fn encode_with_stats(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    encode_inner(h, opts)
+}
+
+/// Encodes `h` to any writer. The hierarchy's links are checked first; positions must be finite.
+/// Level `k + 1` is stored in the canonical order of spec §5.7.
+pub fn encode_to(w: &mut impl Write, h: &Hierarchy, opts: &EncodeOptions) -> Result<(), EncodeError> {
+    w.write_all(&encode(h, opts)?)?;
+    Ok(())
+}
+
+pub fn encode_levels(
+    h: &Hierarchy,
+    opts: &EncodeOptions,
+    mut each: impl FnMut(&level_encode::Encoded) -> Result<(), EncodeError>,
+) -> Result<Grid, EncodeError> {
+    if h.levels.is_empty() {
+        return Err(EncodeError::Empty);
+    }
+    if h.levels.len() > 32 {
+        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
+    }
+    h.check_links()?;
+    check_version(opts)?;
+    let grid = choose_grid(h, opts.quantization)?;
+    let mut parent: Option<PlainLevel> = None;
+    let mut parent_face_new: Vec<u32> = Vec::new();
+    for k in 0..h.levels.len() {
+        let input = input_level(h, k, &grid, &parent_face_new)?;
+        let enc = level_encode::encode_level(
+            k as u32,
+            &input,
+            parent.as_ref(),
+            grid.exact,
+            grid.tied,
+            grid.bits,
+            opts.version,
+        )?;
+        each(&enc)?;
+        parent_face_new = enc.face_new;
+        parent = Some(enc.level);
+    }
+    Ok(grid)
+}
+
+/// Level `k` of `h` on plain arrays: positions quantized on `grid`, parents renumbered through
+/// `parent_face_new` (the parent level's canonical face order).
+pub fn input_level<'a>(
+    h: &'a Hierarchy,
+    k: usize,
+    grid: &Grid,
+    parent_face_new: &[u32],
+) -> Result<InputLevel<'a>, EncodeError> {
+    let l = &h.levels[k];
+    let mesh = &l.mesh;
+    mesh.check_indices().map_err(|source| EncodeError::Faces { level: k, source })?;
+    if mesh.vertices.len() > u32::MAX as usize / 2 || mesh.faces.corner_count() > u32::MAX as usize / 2 {
+        return Err(EncodeError::Unsupported { level: k, reason: "too many vertices or corners".into() });
+    }
+    let mut q = Vec::new();
+    let mut exact = Vec::new();
+    for (v, p) in mesh.vertices.positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(EncodeError::NonFinite { level: k, vertex: v });
+        }
+        if grid.exact {
+            exact.push(p.to_array());
+        } else {
+            let g = grid.quantize(*p);
+            if g.abs().max_element() > geometry::predict::GRID_LIMIT as f64 {
+                return Err(EncodeError::OutOfGrid { level: k, vertex: v });
+            }
+            q.push([g.x as i64, g.y as i64, g.z as i64]);
+        }
+    }
+    let (parents, quadrants) = l
+        .origins
+        .iter()
+        .map(|o| match *o {
+            FaceOrigin::Subface { parent, quadrant } => (parent_face_new[parent as usize], quadrant.0),
+            FaceOrigin::Created => (NO_PARENT, 0),
+        })
+        .unzip();
+    Ok(InputLevel {
+        offsets: mesh.faces.offsets(),
+        indices: mesh.faces.indices(),
+        parents,
+        quadrants,
+        slots: l.lattice.as_ref().map(|x| &x.face_slots[..]),
+        corners: l.lattice.as_ref().map(|x| &x.vertex_corners[..]),
+        q,
+        exact,
+        topology_only: false,
+    })
+}
+
+fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    let mut blocks = Vec::with_capacity(h.levels.len());
+    let mut stats = Vec::with_capacity(h.levels.len());
+    let grid = encode_levels(h, opts, |enc| {
+        let stored = zstd::bulk::compress(&enc.payload, opts.zstd_level)?;
+        let geo_start = enc.payload.len() - enc.split_bytes.1;
+        let topology = zstd::bulk::compress(&enc.payload[..geo_start], opts.zstd_level)?.len();
+        let geometry = zstd::bulk::compress(&enc.payload[geo_start..], opts.zstd_level)?.len();
+        stats.push(LevelStats {
+            mode: enc.payload[0],
+            predictor: enc.predictor,
+            line_shift: enc.line_shift,
+            stored: stored.len(),
+            topology,
+            geometry,
+        });
+        let lv = &enc.level;
+        let counts = (lv.q.len().max(lv.exact.len()) as u32, lv.parents.len() as u32, lv.indices.len() as u32);
+        blocks.push((enc.payload.len() as u64, stored, counts));
+        Ok(())
+    })?;
+    let metadata_bytes = container::to_bytes(&opts.metadata);
+    let mut flags = 0;
+    if h.cube.is_some() {
+        flags |= FLAG_CUBE;
+    }
+    if grid.exact {
+        flags |= FLAG_EXACT;
+    }
+    if grid.tied {
+        flags |= FLAG_TIED;
+    }
+    let (cube_min, cube_max) = h.cube.map_or(([0.0; 3], [0.0; 3]), |c| (c.min.to_array(), c.max.to_array()));
+    let header = FileHeader {
+        magic: MAGIC,
+        version: opts.version,
+        header_size: HEADER_SIZE as u16,
+        flags,
+        level_count: blocks.len() as u32,
+        grid_bits: grid.bits,
+        origin: grid.origin.to_array(),
+        step: grid.step,
+        cube_min,
+        cube_max,
+        metadata_size: u32::try_from(metadata_bytes.len())
+            .map_err(|_| EncodeError::Options("metadata larger than 4 GiB".into()))?,
+        reserved: 0,
+    };
+    let mut offset = (HEADER_SIZE + ENTRY_SIZE * blocks.len() + metadata_bytes.len() + 8) as u64;
+    let mut levels = Vec::with_capacity(blocks.len());
+    for (raw, stored, (nv, nf, nc)) in &blocks {
+        levels.push(LevelEntry {
+            offset,
+            stored_size: stored.len() as u64,
+            raw_size: *raw,
+            checksum: xxh3_64(stored),
+            vertex_count: *nv,
+            face_count: *nf,
+            corner_count: *nc,
+            reserved: 0,
+        });
+        offset += stored.len() as u64;
+    }
+    let pre = Preamble { header, levels, metadata: opts.metadata.clone() };
+    let mut out = pre.to_bytes();
+    for (_, stored, _) in blocks {
+        out.extend(stored);
+    }
+    Ok((out, stats))
+}
