@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 
 /// Area-uniform samples of the dragon with Gaussian noise of `sigma` (the bench's generator).
 fn resample(mesh: &octowrap_mesh::Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
@@ -71,7 +71,7 @@ fn main() {
             .and_then(|s| s.lines().find(|l| l.starts_with(field)).map(str::to_owned))
             .unwrap_or_default()
     };
-    let r = reconstruct_with(&pts, &o, &mut |p| {
+    let r = reconstruct_with_progress(&pts, &o, &mut |p| {
         stage_marker(p.level, p.stage);
         if hwm {
             eprintln!("{:?} {} {}", p.stage, p.level, status("VmHWM:"));

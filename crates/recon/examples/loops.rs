@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -17,7 +17,7 @@ fn main() {
     let pts = m.vertices.positions;
     let mut o = ReconOptions::default();
     o.max_level = MaxLevel::Level(level);
-    let r = reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let r = reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
     for (j, (l, rep)) in r.hierarchy.levels.iter().zip(&r.levels).enumerate() {
         // Boundary edges run one way only; each boundary vertex starts one of them.
         let mut directed = std::collections::BTreeSet::new();

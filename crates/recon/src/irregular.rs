@@ -96,7 +96,7 @@ fn joint_pass(cells: &Cells, coarse: &[Cells], coarse_flips: &[BTreeSet<(u64, u6
     }
     let mut m = a;
     m.merge(&b);
-    crate::fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * cells.voxel())
+    crate::plane_fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * cells.voxel())
 }
 
 /// Whether the mask allows slot `key` (whose voxel must be occupied).

@@ -150,13 +150,14 @@
 
 mod cellmoments;
 mod extract;
-mod fit;
-mod fitting;
 mod irregular;
 mod keymap;
 mod lattice;
+mod least_squares;
 mod mapping;
 mod octree;
+mod pipeline;
+mod plane_fit;
 mod rankmap;
 mod regions;
 mod regular;
@@ -164,16 +165,13 @@ mod relax;
 mod sheet;
 mod sparse;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use octowrap_geom::{DVec3, morton};
-use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, PointCloud};
-use rayon::prelude::*;
+use octowrap_geom::DVec3;
+use octowrap_mesh::Hierarchy;
 
-use crate::irregular::Decisions;
-use crate::lattice::{MAX_LEVEL, unslot};
-use crate::octree::{Octree, voxel_size};
-use crate::rankmap::RankMap;
+use crate::lattice::MAX_LEVEL;
+pub use crate::pipeline::reconstruct_with_progress;
 
 /// The deepest level supported (slot keys pack a level-`j` Morton code in `3 j + 3` bits).
 pub const DEEPEST_LEVEL: u32 = MAX_LEVEL;
@@ -228,7 +226,7 @@ pub struct ReconOptions {
     /// Levels beyond the density limit. Default [`SparseMode::Subdivide`].
     pub sparse: SparseMode,
     /// Most faces any level may have; a deeper level that would exceed it is an error
-    /// ([`ReconError::TooManyFaces`]) rather than an allocation failure. Default 200 million.
+    /// ([`Error::TooManyFaces`]) rather than an allocation failure. Default 200 million.
     pub max_faces: u64,
     /// Map the vertices of wrapped levels onto a weighted height-field quadric of the points
     /// within one voxel edge (Gaussian weights of half an edge, in the weighted plane's frame;
@@ -294,7 +292,7 @@ impl Default for ReconOptions {
 /// Why reconstruction could not run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
-pub enum ReconError {
+pub enum Error {
     /// No points.
     #[error("the point cloud is empty")]
     Empty,
@@ -451,403 +449,12 @@ pub struct Reconstruction {
 /// Guarantees, for every level `j >= 1`: all faces are quads oriented outwards (counter-clockwise
 /// seen from outside); every edge has one or two faces, and two faces on an edge run it in opposite
 /// directions; every vertex has a single fan of faces; every face names its parent face and quadrant
-/// in level `j - 1` or is [`FaceOrigin::Created`]; `lattice` names each face's voxel and side and each
+/// in level `j - 1` or is [`FaceOrigin::Created`](octowrap_mesh::FaceOrigin::Created); `lattice` names each face's voxel and side and each
 /// vertex's lattice corner at level `j`; [`Hierarchy::cube`] is the root cube. Level 0 is the root
 /// cube's six faces. The output depends only on `points` and `opts`, not on the thread count.
 ///
 /// Errors on empty input, non-finite coordinates, fewer than 3 distinct positions, more than
 /// `u32::MAX - 1` points, or a requested level outside `1..=`[`DEEPEST_LEVEL`].
-pub fn reconstruct(points: &[DVec3], opts: &ReconOptions) -> Result<Hierarchy, ReconError> {
-    reconstruct_with(points, opts, &mut |_| {}).map(|r| r.hierarchy)
-}
-
-/// Like [`reconstruct`], reporting progress through `progress` (called on the calling thread at
-/// the start of every stage of every level) and returning per-level figures and timings.
-#[allow(clippy::too_many_lines)] // the pipeline, stage by stage, reads best in one piece
-pub fn reconstruct_with(
-    points: &[DVec3],
-    opts: &ReconOptions,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<Reconstruction, ReconError> {
-    if points.is_empty() {
-        return Err(ReconError::Empty);
-    }
-    let bad = points.par_iter().filter(|p| !p.is_finite()).count();
-    if bad > 0 {
-        return Err(ReconError::NonFinite { count: bad, total: points.len() });
-    }
-    let max_points = u32::MAX as usize - 1;
-    if points.len() > max_points {
-        return Err(ReconError::TooManyPoints { count: points.len(), max: max_points });
-    }
-    if let MaxLevel::Level(n) = opts.max_level {
-        if n == 0 || n > MAX_LEVEL {
-            return Err(ReconError::BadLevel { requested: n, max: MAX_LEVEL });
-        }
-    }
-    let padding = if opts.padding.is_finite() { opts.padding.clamp(0.0, 1.0) } else { 0.01 };
-
-    // §3.2: partitioning.
-    let t = Instant::now();
-    progress(Progress { level: 0, levels: 0, stage: Stage::Partitioning });
-    let mut tree = Octree::new(points, padding);
-    if tree.distinct < 3 {
-        return Err(ReconError::TooFewDistinct { distinct: tree.distinct, needed: 3 });
-    }
-    let mut part_times = vec![t.elapsed()];
-    // The trusted level is the last before the first level whose median falls below the bound.
-    let mut failed: Option<u32> = None;
-    let (mut finest, mut trusted) = loop {
-        let j = tree.depth();
-        if failed.is_none() && j >= 1 && tree.levels[j as usize].median_count() < opts.min_median_points {
-            failed = Some(j);
-        }
-        let trusted_so_far = failed.map_or(j, |f| (f - 1).max(1));
-        match opts.max_level {
-            MaxLevel::Auto if failed.is_some() || j >= AUTO_CAP => break (trusted_so_far, trusted_so_far),
-            // Stop once the trusted level is known and the levels the mapping needs exist.
-            MaxLevel::Level(n) if j >= n || (failed.is_some() && j + 1 >= n && j > trusted_so_far) => {
-                break (n, trusted_so_far.min(n));
-            }
-            _ => {}
-        }
-        let t = Instant::now();
-        progress(Progress { level: j + 1, levels: j + 1, stage: Stage::Partitioning });
-        tree.push_level();
-        part_times.push(t.elapsed());
-    };
-    // Regions ([`regions`]): sparse regions of wrapped levels are subdivided inside them; past
-    // the global limit, up to `region_levels` more levels are wrapped while some region is dense.
-    let tau = opts.region_density;
-    let regions = opts.sparse == SparseMode::Subdivide && opts.region_levels > 0 && tau.is_finite() && tau > 0.0;
-    if opts.sparse == SparseMode::Wrap {
-        trusted = finest;
-    }
-    // The last level the global criterion trusts everywhere: regions start below it.
-    let global = trusted;
-    if regions {
-        // `Auto` goes as deep as the regions are wrapped.
-        let auto = opts.max_level == MaxLevel::Auto;
-        let bound = if auto { AUTO_CAP } else { finest };
-        let last = bound.min(trusted.saturating_add(opts.region_levels)).min(MAX_LEVEL);
-        while trusted < last {
-            while tree.depth() < trusted + 1 {
-                let t = Instant::now();
-                tree.push_level();
-                part_times.push(t.elapsed());
-            }
-            if !regions::any_dense(&tree.levels[trusted as usize], &tree.levels[trusted as usize + 1], tau) {
-                break;
-            }
-            trusted += 1;
-        }
-        if auto {
-            finest = trusted;
-        }
-    }
-    // The mapping of a wrapped level j queries level j + 1; of a subdivided level k, level
-    // k - 1 (its points, summed per child). Nothing deeper is kept (or built).
-    let keep = (trusted + 1).max(finest.saturating_sub(1)).min(MAX_LEVEL);
-    while tree.depth() > keep {
-        tree.levels.pop();
-        part_times.pop();
-    }
-    while tree.depth() < keep {
-        let t = Instant::now();
-        tree.push_level();
-        part_times.push(t.elapsed());
-    }
-    let t = Instant::now();
-    // Moments are needed down to the trusted level only (sheets, diagonal tests, mapping fallback).
-    tree.finish(trusted);
-    part_times[trusted as usize] += t.elapsed();
-
-    let mut levels: Vec<Level> = Vec::new();
-    let mut reports: Vec<LevelReport> = Vec::new();
-
-    // Level 0: the root cube.
-    let root_slots: Vec<u64> = (0..6u8).map(|d| lattice::slot(0, d)).collect();
-    let (ex, _) = extract::extract(&root_slots, &Decisions::new(&tree.levels[0]));
-    let root_pos: Vec<DVec3> =
-        ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect();
-    let mut prev = LevelState {
-        slots: root_slots,
-        quads: ex.quads,
-        corners: ex.corners,
-        positions: root_pos,
-        origins: vec![FaceOrigin::Created; 6],
-    };
-    reports.push(LevelReport {
-        level: 0,
-        kind: LevelKind::Root,
-        voxels: 1,
-        median_points: points.len() as f64,
-        faces: 6,
-        vertices: 8,
-        created: 6,
-        oriented_voxels: 0,
-        flips: 0,
-        dropped: 0,
-        filled: 0,
-        sparse_voxels: 0,
-        timings: StageTimings { partitioning: part_times[0], ..StageTimings::default() },
-    });
-    levels.push(prev.take_level(&tree, false));
-
-    // The mask and the flips of the wrapped levels above, for the filled voxels of the next.
-    let mut prev_mask: Option<sheet::Mask> = None;
-    let mut flips_by_level: Vec<std::collections::BTreeSet<(u64, u64)>> = vec![std::collections::BTreeSet::new()];
-    for j in 1..=finest {
-        // The sparse regions of level j - 1 (past the global limit), before gaps are filled
-        // (they hold no points).
-        let mut marks = (regions && j > global && j <= trusted)
-            .then(|| regions::mark(&tree.levels[j as usize - 1], &tree.levels[j as usize], tau));
-        if marks.as_ref().is_some_and(|m| m.iter().all(|&s| s)) {
-            // Every voxel is sparse: this level and the deeper ones are plain subdivision.
-            trusted = j - 1;
-            marks = None;
-        }
-        // One-voxel gaps of sparsely sampled sheets are filled before the level is wrapped
-        // (timed with the level's partitioning).
-        let t = Instant::now();
-        let filled = if opts.fill_gaps && (2..=trusted).contains(&j) { tree.levels[j as usize].fill_gaps() } else { 0 };
-        let gap_time = t.elapsed();
-        let here = tree.levels.get(j as usize);
-        let (voxels, median_points) =
-            (here.map_or(0, octree::Cells::len), here.map_or(0.0, octree::Cells::median_count));
-        // Sparse regions: the children of sparse voxels are all present.
-        let sparse_voxels = match marks {
-            Some(marks) => {
-                let (above, here) = tree.levels.split_at_mut(j as usize);
-                regions::fill(&mut here[0], &above[j as usize - 1], &marks)
-            }
-            None => 0,
-        };
-        let mut rep = LevelReport {
-            level: j,
-            kind: LevelKind::Wrapped,
-            voxels,
-            median_points,
-            faces: 0,
-            vertices: 0,
-            created: 0,
-            oriented_voxels: 0,
-            flips: 0,
-            dropped: 0,
-            filled,
-            sparse_voxels,
-            timings: StageTimings {
-                partitioning: part_times.get(j as usize).copied().unwrap_or_default() + gap_time,
-                ..StageTimings::default()
-            },
-        };
-        let mut stage = |s| progress(Progress { level: j, levels: finest, stage: s });
-        let next = if j <= trusted {
-            let cells = &tree.levels[j as usize];
-            let coarse = &tree.levels[j as usize - 1];
-            // §3.4: mask and regular refinement.
-            stage(Stage::Regular);
-            let t = Instant::now();
-            let prev_index = RankMap::from_sorted(&prev.slots);
-            let mask = sheet::build(&tree, cells, coarse, &prev_index, prev_mask.as_ref());
-            rep.oriented_voxels = mask.signed_count();
-            let initial = regular::refine(&prev.slots, &prev_index, cells, &mask);
-            rep.timings.regular = t.elapsed();
-            // §3.5: closure, extraction, splits.
-            stage(Stage::Irregular);
-            let t = Instant::now();
-            let mut dec = Decisions::with_parents(cells, &tree.levels[..j as usize], &flips_by_level);
-            let (mut slots, mut origins, created) = irregular::close(initial, cells, &mask, &dec);
-            rep.created = created;
-            let mut tried = std::collections::BTreeSet::new();
-            let ex = loop {
-                let (ex, bad) = extract::extract(&slots, &dec);
-                if bad.is_empty() {
-                    break ex;
-                }
-                let mut drop = vec![false; slots.len()];
-                for b in bad {
-                    match b.diagonal {
-                        Some(p) if tried.insert(p) => {
-                            dec.flips.insert(p);
-                            rep.flips += 1;
-                        }
-                        _ => {
-                            for f in b.faces {
-                                drop[f as usize] = true;
-                            }
-                        }
-                    }
-                }
-                let before = slots.len();
-                let mut keep = drop.iter().map(|d| !d);
-                slots.retain(|_| keep.next().unwrap_or(true));
-                let mut keep = drop.iter().map(|d| !d);
-                origins.retain(|_| keep.next().unwrap_or(true));
-                rep.dropped += before - slots.len();
-            };
-            rep.timings.irregular = t.elapsed();
-            let flips = std::mem::take(&mut dec.flips);
-            drop(dec);
-            let h = voxel_size(j);
-            let mut positions: Vec<DVec3> =
-                ex.corners.iter().map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2])) * h).collect();
-            if sparse_voxels > 0 {
-                regions::start_on_parents(
-                    &regions::Faces { slots: &slots, origins: &origins, quads: &ex.quads, corners: &ex.corners },
-                    cells,
-                    &regions::Parents { quads: &prev.quads, corners: &prev.corners, positions: &prev.positions },
-                    &mut positions,
-                );
-            }
-            // Kept for the next level's filled voxels, if it is wrapped.
-            if regions && j < trusted {
-                flips_by_level.push(flips);
-                prev_mask = Some(mask);
-            } else {
-                prev_mask = None;
-            }
-            LevelState { slots, quads: ex.quads, corners: ex.corners, positions, origins }
-        } else {
-            // Check the finest level's face count before building any subdivided level.
-            let faces = (prev.quads.len() as u64).saturating_mul(4u64.saturating_pow(finest - j + 1));
-            if faces > opts.max_faces.min(u64::from(u32::MAX / 4)) {
-                return Err(ReconError::TooManyFaces { level: finest, faces, max: opts.max_faces });
-            }
-            rep.kind = LevelKind::Subdivided;
-            stage(Stage::Irregular);
-            let t = Instant::now();
-            let s = sparse::subdivide(&prev.quads, &prev.corners, &prev.slots, &prev.positions);
-            rep.timings.irregular = t.elapsed();
-            LevelState {
-                slots: s.slots,
-                quads: s.quads,
-                corners: s.corners,
-                positions: s.positions,
-                origins: s.origins,
-            }
-        };
-        let mut next = next;
-        // The level above is no longer needed (its output level is already built).
-        drop(std::mem::take(&mut prev));
-        // §3.6: vertex mapping.
-        stage(Stage::Mapping);
-        let t = Instant::now();
-        let planes = if rep.kind == LevelKind::Wrapped {
-            let cells = &tree.levels[j as usize];
-            let face_cells: Vec<u32> = next
-                .slots
-                .par_iter()
-                .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
-                .collect();
-            let coarse = &tree.levels[j as usize - 1];
-            mapping::map_wrapped(
-                &tree,
-                cells,
-                coarse,
-                &next.quads,
-                &face_cells,
-                &mut next.positions,
-                opts.quadric_mapping,
-            )
-        } else {
-            mapping::map_free(&tree, j, &mut next.positions)
-        };
-        rep.timings.mapping = t.elapsed();
-        let fit_here = opts.fit_passes > 0 && next.quads.len() <= opts.fit_max_faces;
-        if j == finest && !fit_here {
-            // The points and voxels are no longer needed: free them before the relaxation's
-            // buffers and the output's conversions (this keeps the finest level's peak down).
-            tree.release();
-        }
-        // §3.6.1: relaxation.
-        stage(Stage::Relaxation);
-        let t = Instant::now();
-        let passes = if j >= opts.relax_from_level { opts.relax_passes } else { 0 };
-        relax::relax(&mut next.positions, &planes, &next.quads, passes);
-        drop(planes);
-        if fit_here {
-            // The deepest level kept holds the faces' voxels (a wrapped level's own, a
-            // subdivided level's parents).
-            let g = j.min(tree.depth());
-            let grid = &tree.levels[g as usize];
-            let face_voxel: Vec<u32> = if rep.kind == LevelKind::Wrapped {
-                // A wrapped face's own voxel.
-                next.slots.par_iter().map(|&s| grid.find(unslot(s).0).map_or(u32::MAX, |i| i as u32)).collect()
-            } else {
-                // A subdivided face's voxel may be empty: the voxel of its centre, if occupied.
-                let cells = f64::from(1u32 << g);
-                next.quads
-                    .par_iter()
-                    .map(|q| {
-                        let c = q.iter().fold(DVec3::ZERO, |s, &v| s + next.positions[v as usize]) * 0.25;
-                        let k = c.map(|x| (x * cells).clamp(0.0, cells - 1.0)).as_uvec3();
-                        grid.find(morton::encode(k.x, k.y, k.z)).map_or(u32::MAX, |i| i as u32)
-                    })
-                    .collect()
-            };
-            let input = fitting::Input { points: &tree.points, grid, face_voxel: &face_voxel };
-            // A subdivided level starts from its fitted parent's surface: two passes do what
-            // three do on a wrapped level (measured: the bunny's level 6 .00024 with three,
-            // .00025 with two), at two thirds of the cost.
-            let passes = if rep.kind == LevelKind::Wrapped { opts.fit_passes } else { opts.fit_passes.min(2) };
-            fitting::fit(&input, &next.quads, &mut next.positions, passes, opts.fit_samples);
-            if j == finest {
-                tree.release();
-            }
-        }
-        rep.timings.relaxation = t.elapsed();
-        rep.faces = next.quads.len();
-        rep.vertices = next.corners.len();
-        levels.push(next.take_level(&tree, j == finest));
-        reports.push(rep);
-        prev = next;
-    }
-    let hierarchy = Hierarchy { levels, cube: Some(tree.frame.cube()) };
-    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: trusted })
-}
-
-/// One level while it is being built (local coordinates).
-#[derive(Default)]
-struct LevelState {
-    slots: Vec<u64>,
-    quads: Vec<[u32; 4]>,
-    corners: Vec<[u32; 3]>,
-    positions: Vec<DVec3>,
-    origins: Vec<FaceOrigin>,
-}
-
-impl LevelState {
-    /// The output level; moves the origins out (the next level does not need them), and with
-    /// `last` also the positions, corners and quads (converted in place, no copies at the
-    /// finest level).
-    fn take_level(&mut self, tree: &Octree, last: bool) -> Level {
-        let world: Vec<DVec3> = if last {
-            let mut p = std::mem::take(&mut self.positions);
-            p.par_iter_mut().for_each(|p| *p = tree.frame.to_world(*p));
-            p
-        } else {
-            self.positions.par_iter().map(|&p| tree.frame.to_world(p)).collect()
-        };
-        let vertex_corners = if last { std::mem::take(&mut self.corners) } else { self.corners.clone() };
-        let faces = if last {
-            FaceList::from_quad_vec(std::mem::take(&mut self.quads))
-        } else {
-            FaceList::from_quads(&self.quads)
-        };
-        let mesh = Mesh { vertices: PointCloud::from_positions(world), faces };
-        let face_slots = self
-            .slots
-            .par_iter()
-            .map(|&s| {
-                let (code, side) = unslot(s);
-                (morton::decode(code), side)
-            })
-            .collect();
-        Level {
-            mesh,
-            origins: std::mem::take(&mut self.origins),
-            lattice: Some(LevelLattice { face_slots, vertex_corners }),
-        }
-    }
+pub fn reconstruct(points: &[DVec3], opts: &ReconOptions) -> Result<Hierarchy, Error> {
+    reconstruct_with_progress(points, opts, &mut |_| {}).map(|r| r.hierarchy)
 }

@@ -109,7 +109,7 @@ fn round_i64(t: f64) -> i64 {
 
 /// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
 fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
-    match crate::fit::normal(m) {
+    match crate::plane_fit::normal(m) {
         Some((c, n)) => (x - n * (-c).dot(n), Some(TangentPlane::new(c + x, n))),
         None => (x, None),
     }
@@ -200,7 +200,7 @@ pub(crate) fn map_wrapped(
                     all.merge(&cells.moments[c]);
                 }
             }
-            if let Some((c, n)) = crate::fit::normal(&all) {
+            if let Some((c, n)) = crate::plane_fit::normal(&all) {
                 let projected = x - n * (x - c).dot(n);
                 return (projected, Some(TangentPlane::new(c, n)));
             }
@@ -307,7 +307,7 @@ fn quadric_fit(points: &[(DVec3, f64)], h: f64) -> Option<(DVec3, DVec3)> {
     for &(p, w) in points {
         m.add_weighted(p, w);
     }
-    let (c, n) = crate::fit::normal(&m)?;
+    let (c, n) = crate::plane_fit::normal(&m)?;
     let u = n.any_orthonormal_vector();
     let v = n.cross(u);
     // The normal equations, upper triangle (the matrix is symmetric).

@@ -316,14 +316,14 @@ pub(crate) fn build(
             if around.count < 8.0 {
                 return unreliable;
             }
-            let Some(plane) = crate::fit::plane(&around) else { return unreliable };
+            let Some(plane) = crate::plane_fit::plane(&around) else { return unreliable };
             let [l0, l1, _] = plane.eigenvalues;
             if !(l0.sqrt() < 0.5 * l1.sqrt()) {
                 return unreliable;
             }
             let (m, n) = (plane.point, plane.normal);
             let mut state = State::Unsigned;
-            let own = crate::fit::plane(&fine.moments[i]);
+            let own = crate::plane_fit::plane(&fine.moments[i]);
             let planes = [Some((m, n)), own.map(|p| (p.point, p.normal))];
             if planes.iter().flatten().any(|&(m, n)| two_layers(&pts[fine.range(i)], m, n, h)) {
                 state = State::TwoSided;

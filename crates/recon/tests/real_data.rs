@@ -7,7 +7,7 @@ mod support;
 use std::path::PathBuf;
 
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 use support::check_manifold;
 
 fn shared(relative: &str) -> Option<PathBuf> {
@@ -36,7 +36,7 @@ fn check_all(name: &str, pts: &[DVec3], level: MaxLevel) -> Vec<(usize, usize, u
 
 /// [`check_all`] with options.
 fn check_opts(name: &str, pts: &[DVec3], o: &ReconOptions) -> Vec<(usize, usize, usize)> {
-    let r = reconstruct_with(pts, o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let r = reconstruct_with_progress(pts, o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy
         .levels
@@ -169,7 +169,7 @@ fn regions_past_the_density_limit_keep_the_promises() {
         o.max_level = MaxLevel::Level(7);
         o.region_levels = 2;
         o.region_density = 3.0;
-        let r = reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+        let r = reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
         assert_eq!(r.trusted_level, 6);
         assert!(r.levels[6].sparse_voxels > 0 && r.levels[6].kind == octowrap_recon::LevelKind::Wrapped);
         let levels = check_opts("bunny with regions", &pts, &o);

@@ -3,7 +3,7 @@
 mod support;
 
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconError, ReconOptions, reconstruct};
+use octowrap_recon::{MaxLevel, Error, ReconOptions, reconstruct};
 use support::check_manifold;
 
 fn level(n: u32) -> ReconOptions {
@@ -29,18 +29,18 @@ fn valid_or_error(name: &str, pts: &[DVec3]) {
 
 #[test]
 fn empty_single_and_equal_points_are_errors() {
-    assert_eq!(reconstruct(&[], &ReconOptions::default()), Err(ReconError::Empty));
+    assert_eq!(reconstruct(&[], &ReconOptions::default()), Err(Error::Empty));
     assert_eq!(
         reconstruct(&[DVec3::ONE], &ReconOptions::default()),
-        Err(ReconError::TooFewDistinct { distinct: 1, needed: 3 })
+        Err(Error::TooFewDistinct { distinct: 1, needed: 3 })
     );
     let same = vec![DVec3::new(1.0, 2.0, 3.0); 1000];
     assert!(matches!(
         reconstruct(&same, &ReconOptions::default()),
-        Err(ReconError::TooFewDistinct { distinct: 1, .. })
+        Err(Error::TooFewDistinct { distinct: 1, .. })
     ));
     let two = [DVec3::ZERO, DVec3::ONE, DVec3::ZERO];
-    assert!(matches!(reconstruct(&two, &ReconOptions::default()), Err(ReconError::TooFewDistinct { distinct: 2, .. })));
+    assert!(matches!(reconstruct(&two, &ReconOptions::default()), Err(Error::TooFewDistinct { distinct: 2, .. })));
 }
 
 #[test]
@@ -50,7 +50,7 @@ fn non_finite_points_are_rejected_with_their_count() {
     pts[10].z = f64::INFINITY;
     pts[11].y = f64::NEG_INFINITY;
     let e = reconstruct(&pts, &ReconOptions::default()).unwrap_err();
-    assert_eq!(e, ReconError::NonFinite { count: 3, total: 500 });
+    assert_eq!(e, Error::NonFinite { count: 3, total: 500 });
     assert!(e.to_string().contains("3 of 500"));
 }
 
@@ -58,9 +58,9 @@ fn non_finite_points_are_rejected_with_their_count() {
 fn bad_levels_are_rejected() {
     let pts = support::sphere(500);
     // Subdividing 15 levels past the density limit would need billions of faces.
-    assert!(matches!(reconstruct(&pts, &level(20)), Err(ReconError::TooManyFaces { .. })));
-    assert!(matches!(reconstruct(&pts, &level(0)), Err(ReconError::BadLevel { requested: 0, .. })));
-    assert!(matches!(reconstruct(&pts, &level(99)), Err(ReconError::BadLevel { requested: 99, .. })));
+    assert!(matches!(reconstruct(&pts, &level(20)), Err(Error::TooManyFaces { .. })));
+    assert!(matches!(reconstruct(&pts, &level(0)), Err(Error::BadLevel { requested: 0, .. })));
+    assert!(matches!(reconstruct(&pts, &level(99)), Err(Error::BadLevel { requested: 99, .. })));
 }
 
 #[test]
@@ -129,7 +129,7 @@ fn sparse_regions_give_the_same_output_for_one_and_two_threads() {
             .num_threads(n)
             .build()
             .expect("pool")
-            .install(|| octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs"))
+            .install(|| octowrap_recon::reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs"))
     };
     let (one, two) = (run(1), run(2));
     assert!(one.levels.iter().any(|l| l.sparse_voxels > 0), "no sparse region");

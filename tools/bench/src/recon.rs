@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::Mesh;
-use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with_progress};
 use rayon::prelude::*;
 
 use crate::util::{best_of, shared_data};
@@ -183,7 +183,7 @@ fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
 }
 
 fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
-    reconstruct_with(points, o, &mut |_| {}).expect("reconstructs")
+    reconstruct_with_progress(points, o, &mut |_| {}).expect("reconstructs")
 }
 
 /// The accuracy table of one model.
