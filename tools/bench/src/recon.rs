@@ -145,7 +145,7 @@ fn errors(points: &[DVec3], mesh: &Mesh) -> ((f64, f64), (f64, f64)) {
 
 /// Boundary loops of a mesh, as the validator counts them.
 fn boundary_loops(mesh: &Mesh) -> usize {
-    octowrap_validate::validate_mesh(mesh, &octowrap_validate::Options::default()).counts.boundary_loops
+    octowrap_validate::validate_mesh(mesh, &octowrap_validate::ValidateOptions::default()).counts.boundary_loops
 }
 
 /// User plus system CPU seconds of this process so far (`/proc/self/stat`, 100 ticks a second).
