@@ -38,11 +38,14 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
     })
 }
 
+/// Each directed edge `(a, b)` with the face that runs it.
+type Directed = BTreeMap<(u32, u32), usize>;
+
 /// Every directed edge with its face (each used once), and every vertex's faces; an error for a
 /// face that is not a quad of four distinct in-range vertices.
-fn directed_edges(mesh: &Mesh) -> Result<(BTreeMap<(u32, u32), usize>, Vec<Vec<usize>>), String> {
+fn directed_edges(mesh: &Mesh) -> Result<(Directed, Vec<Vec<usize>>), String> {
     let nv = mesh.vertices.len();
-    let mut directed: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+    let mut directed = Directed::new();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nv];
     for (f, face) in mesh.faces.iter().enumerate() {
         if face.len() != 4 {
@@ -71,7 +74,7 @@ fn directed_edges(mesh: &Mesh) -> Result<(BTreeMap<(u32, u32), usize>, Vec<Vec<u
 
 /// The number of undirected edges (at most two faces each, as the directed edges are unique) and
 /// the boundary edges by their start vertex.
-fn undirected_edges(directed: &BTreeMap<(u32, u32), usize>) -> (usize, BTreeMap<u32, Vec<u32>>) {
+fn undirected_edges(directed: &Directed) -> (usize, BTreeMap<u32, Vec<u32>>) {
     let mut edges = 0;
     let mut boundary: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
     for &(a, b) in directed.keys() {
@@ -89,7 +92,7 @@ fn undirected_edges(directed: &BTreeMap<(u32, u32), usize>) -> (usize, BTreeMap<
 /// at most one boundary edge leaving it.
 fn single_fans(
     mesh: &Mesh,
-    directed: &BTreeMap<(u32, u32), usize>,
+    directed: &Directed,
     incident: &[Vec<usize>],
     boundary: &BTreeMap<u32, Vec<u32>>,
 ) -> Result<(), String> {
@@ -146,7 +149,7 @@ fn boundary_loops(boundary: &BTreeMap<u32, Vec<u32>>) -> usize {
 }
 
 /// Connected components of the faces, joined across edges, by union-find.
-fn components(nf: usize, directed: &BTreeMap<(u32, u32), usize>) -> usize {
+fn components(nf: usize, directed: &Directed) -> usize {
     fn root(p: &mut [usize], mut x: usize) -> usize {
         while p[x] != x {
             p[x] = p[p[x]];
