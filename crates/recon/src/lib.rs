@@ -30,22 +30,28 @@
 //! ```
 //!
 //! # The pipeline, one module per stage
+//! `pipeline` runs the stages in the paper's order, one named function each; the modules do the
+//! work.
+//!
 //! | stage | module | paper |
 //! |---|---|---|
+//! | the sequence of stages | `pipeline` | §3.1 |
 //! | hierarchical space partitioning | `octree` | §3.2 |
 //! | which slots may hold faces (oriented sheets) | `sheet` | §3.4-3.5 stop rules |
 //! | regular refinement `R` | `regular` | §3.4 |
 //! | irregular refinement `I` (closure, diagonal case) | `irregular` | §3.5 |
 //! | vertex extraction, vertex and edge splits | `extract` | §3.5, Fig. 5 |
-//! | vertex mapping | `mapping` | §3.6 |
+//! | vertex mapping (closed-form plane fit: `plane_fit`) | `mapping` | §3.6 |
 //! | relaxation | `relax` | §3.6.1 |
-//! | least-squares fit to the points (beyond the paper) | `fitting` | after §3.6.1 |
+//! | least-squares fit to the points (beyond the paper) | `least_squares` | after §3.6.1 |
 //! | density limit, subdivision beyond it | `sparse` | §4.2 |
 //! | trusted level per region (optional) | `regions` | §4.2 |
 //! | gaps of sparsely sampled sheets | `octree` (`fill_gaps`) | §4.2 |
 //!
 //! # Readings of the paper
-//! Where the paper is vague we took these readings (each module's docs give the details):
+//! Where the paper leaves a choice open, the code reads it as follows (each module's docs give
+//! the details; the repository's `docs/decisions.md` lists the alternatives measured against
+//! these readings):
 //!
 //! * **Faces are slots (§3.3).** A face is a pair (voxel, side) with the side's neighbour empty,
 //!   at most one per slot, oriented outwards. A level's mesh is a set of slots; two faces are
@@ -56,26 +62,24 @@
 //! * **Stop rules (§3.5 rules 1 and 2)** are replaced by one order-independent predicate on slots,
 //!   the oriented-sheet mask of `sheet`: a voxel whose neighbourhood is a flat single sheet of
 //!   points, oriented outwards by the coarser level's faces, refuses faces looking into the object.
-//!   Read literally, the paper's rules depend on visiting order, and in a prototype they both let
-//!   holes close and refused to wrap one-voxel protrusions. A voxel too curved or too thinly
-//!   sampled for a plane of its own leans with its oriented neighbours when its points continue
-//!   their sheet in one thin layer (the curling rim of a hole), so the wrapping does not take the
-//!   inside of the shell there.
+//!   Read literally, the paper's rules depend on visiting order; they let holes close and refuse
+//!   to wrap one-voxel protrusions. A voxel too curved or too thinly sampled for a plane of its
+//!   own leans with its oriented neighbours when its points continue their sheet in one thin
+//!   layer (the curling rim of a hole), so the wrapping does not take the inside of the shell
+//!   there.
 //! * **The diagonal case (§3.5 case 3b)** is decided per voxel pair from one plane fitted to both
 //!   voxels' points (pass unless the joint RMS residual exceeds 0.2 voxel with 4+ points each),
-//!   not from the two voxels' separate normals, which broke sampled spheres.
+//!   not from the two voxels' separate normals, which make false breaks on sampled spheres.
 //! * **Vertex and edge splits (§3.5, Fig. 5)** happen by construction: vertices are the fans of
 //!   linked faces around each lattice point, so they are manifold; a remaining pinched diagonal
 //!   edge has its decision flipped (the edge split).
 //! * **Vertex mapping (§3.6)**: `W` = the voxels of the vertex's fan; the `2|p - v| < l` filter;
-//!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped. The
-//!   paper's plane is the default; [`ReconOptions::quadric_mapping`] puts a wrapped level's
-//!   vertex instead onto a weighted height-field quadric of `W`'s points within one edge
-//!   (Gaussian weights of half an edge). Without the fit below, the quadric was 3-8 % closer to
-//!   the points on the bunny at levels 1-5 and 1-5 % on the dragon at levels 2-7, for about 30 %
-//!   more mapping time; with the fit, the plane is as close (within 1-3 %, better or worse by
-//!   level; `tools/bench/RESULTS.md`) and the whole reconstruction 4-6 % cheaper, so the plane
-//!   became the default again.
+//!   growth to adjacent voxels under 3 points. Level 0 (the root cube) is not mapped. A vertex
+//!   goes onto the paper's plane; [`ReconOptions::quadric_mapping`] puts a wrapped level's vertex
+//!   instead onto a weighted height-field quadric of `W`'s points within one edge (Gaussian
+//!   weights of half an edge). After the least-squares fit below, the plane is as close to the
+//!   points as the quadric (within 1-3 %, better or worse by level) and the whole reconstruction
+//!   4-6 % cheaper (`tools/bench/RESULTS.md`).
 //! * **Relaxation (§3.6.1)**: Laplacian to the one-ring centroid, then re-projection on the
 //!   vertex's own plane. The paper relaxes every level; measured (`tools/bench/RESULTS.md`), it
 //!   lowers the bunny's points-to-mesh error by up to 19 % from level 4 on but raises it by up to
@@ -89,56 +93,45 @@
 //!   squares with the connectivity fixed ([`ReconOptions::fit_passes`] passes of projection and
 //!   a sparse solve, after Hoppe et al.'s mesh optimisation), with a weak pull towards the mapped
 //!   positions and a weak membrane that keeps thinly sampled vertices with their neighbours.
-//!   Measured (`tools/bench/RESULTS.md`): on the bunny the points-to-mesh RMS of levels 1-7 falls
-//!   from .0337 .0222 .0113 .0057 .0023 .00093 .00039 to .0223 .0142 .0060 .0021 .00080 .00024
-//!   .00008 (the paper's Table 3: .0259 .0095 .0036 .0011 .0004 .00014 for levels 1-6), falling
-//!   1.6-3.3x per level, while the vertices stay as near the points as before. Off with
-//!   `fit_passes = 0`.
+//!   Measured (`tools/bench/RESULTS.md`): on the bunny the points-to-mesh RMS of levels 1-7 is
+//!   .0223 .0142 .0060 .0021 .00080 .00024 .00008 with the fit and .0337 .0222 .0113 .0057 .0023
+//!   .00093 .00039 without (the paper's Table 3: .0259 .0095 .0036 .0011 .0004 .00014 for levels
+//!   1-6), 1.6-3.3x closer per level, with the vertices as near the points as the mapping puts
+//!   them. Off with `fit_passes = 0`.
 //! * **Sparse data (§4.2)**: a level is trusted while the median points per occupied voxel is at
 //!   least 8; [`MaxLevel::Auto`] stops there; deeper levels asked for are subdivided and mapped.
 //! * **Gaps of sparse sheets (§4.2 with §3.5's holes)**: the paper keeps holes "where the data
 //!   has holes" and warns that below the sampling density the mesh fragments (Fig. 8(b)). A
 //!   trusted level can still be locally too sparse: on the dragon's thinly sampled underside the
 //!   level-7 voxels hold 1-5 points and leave one-voxel gaps in a one-voxel-thick layer, which
-//!   the oriented-sheet mask rightly keeps open as it keeps any hole in a sheet. We read such a
-//!   gap as missing samples, not a hole: before a level is wrapped, an empty voxel on the surface
-//!   (one of its two neighbours along some axis empty) with at least 3 of its 4 neighbours
-//!   across that axis occupied, by at most 8 points each on average, whose points form a flat
-//!   sheet across the axis (spread along it under 0.2 voxel: not the walls and floor of a narrow
-//!   groove, which a first version bridged, doubling the dragon's level-7 error), is added as a
-//!   voxel without points ([`ReconOptions::fill_gaps`]). Dense data keeps its holes (a one-voxel
-//!   hole among voxels of more than 8 points stays), and the bunny's open bottom, many voxels
-//!   wide, stays open. Dragon level 7: 52 boundary loops before, 23 after, same error.
+//!   the oriented-sheet mask rightly keeps open as it keeps any hole in a sheet. Such a gap is
+//!   read as missing samples, not a hole: before a level is wrapped, an empty voxel on the
+//!   surface (one of its two neighbours along some axis empty) with at least 3 of its 4
+//!   neighbours across that axis occupied, by at most 8 points each on average, whose points form
+//!   a flat sheet across the axis (spread along it under 0.2 voxel: not the walls and floor of a
+//!   narrow groove, whose bridging doubles the dragon's level-7 error), is added as a voxel
+//!   without points ([`ReconOptions::fill_gaps`]). Dense data keeps its holes (a one-voxel hole
+//!   among voxels of more than 8 points stays), and the bunny's open bottom, many voxels wide,
+//!   stays open. On the dragon's level 7 the filling leaves 23 boundary loops instead of 52, at
+//!   the same error.
 //! * **Trusted level per region (§4.2)**, optional ([`ReconOptions::region_levels`], off by
-//!   default): the paper's "fix the topology at a coarser level" read per region, as in the
-//!   prototype's fourth round (`../shared/docs/reconstruction.md`). Before level `j + 1`, a voxel
-//!   whose 3x3x3 block holds fewer than `tau` ([`ReconOptions::region_density`]) points per
-//!   occupied child is sparse (grown by its 26 neighbours, sparse below); its eight children are
-//!   all present at `j + 1` (*filled*), so the wrapped level reproduces its parent's faces split
-//!   1:4 there, inside one crack-free lattice mesh. Filled voxels allow their parent's subfaces,
-//!   plus the transition's steps: a slot looking into an empty child of a dense voxel, unless it
-//!   is inwards of a parent face the child lies on and behind every oriented sheet around (its
-//!   parent's, the dense voxel's, the dense voxels' around the empty one). The prototype's "every
-//!   slot within one voxel of a dense voxel" wrapped the inner side of a sampled bowl; the
-//!   sheet-angle test of `sheet` kept the wrong-way steps (a filled region is up to a voxel
-//!   thicker than its points) closed and cracked the border; the steps into dense voxels' empty
-//!   children alone left one-quad pits (bunny level 6: 17 boundary loops, 5 with the sheets
-//!   around). Diagonal edges between filled voxels take the parents' decisions; their vertices
-//!   start on the parent face (bilinear) and are mapped as on subdivided levels. Regions start
-//!   past the global limit: `region_levels` levels are wrapped there where some region is dense,
-//!   and a level where every voxel is sparse is plain subdivision. Marking regions inside the
-//!   trusted levels too (the prototype) was measured worse: at `tau = 10` the bunny's level 5
-//!   went from RMS .00228 to .00290 and its level 7 from .00039 to .00169, the dragon's level 7
-//!   from .00159 to .00201 with 68 boundary loops instead of 23: the rims it subdivides are where
-//!   the coarser topology lies furthest from the points. Past the limit, `tau = 10` finds no
-//!   dense region on the Rabbit or the bunny; `tau = 4` (the default) cuts the dragon's level 8
-//!   from .00134 (subdivided) to .00039 with 69 boundary loops (1,552 wrapped everywhere) but
-//!   finds nothing dense on the Rabbit or the bunny; `tau = 3` wraps the bunny's level 6 (RMS
-//!   .00093 -> .00090, level 7 .00039 -> .00037, 5 loops) but leaves the dragon's level 8 with 309
-//!   loops; the Rabbit gains most at 2.75 (level 6 .00214 -> .00137). Below about 5 points per
-//!   child a region that counts as dense can break into sampling holes (a sphere sampled thinly
-//!   on one half: 3 loops at 3-4, none at 5). Off by default because on the 4.3 M-point case it
-//!   would wrap levels 9-10 (see `tools/bench/RESULTS.md`).
+//!   default): the paper's "fix the topology at a coarser level" read per region. Before level
+//!   `j + 1`, a voxel whose 3x3x3 block holds fewer than `tau` ([`ReconOptions::region_density`])
+//!   points per occupied child is sparse (grown by its 26 neighbours, sparse below); its eight
+//!   children are all present at `j + 1` (*filled*), so the wrapped level reproduces its parent's
+//!   faces split 1:4 there, inside one crack-free lattice mesh. Filled voxels allow their
+//!   parent's subfaces, plus the transition's steps: a slot looking into an empty child of a
+//!   dense voxel, unless it is inwards of a parent face the child lies on and behind every
+//!   oriented sheet around (its parent's, the dense voxel's, the dense voxels' around the empty
+//!   one). Diagonal edges between filled voxels take the parents' decisions; their vertices start
+//!   on the parent face (bilinear) and are mapped as on subdivided levels. Regions start past the
+//!   global limit: `region_levels` levels are wrapped there where some region is dense, and a
+//!   level where every voxel is sparse is plain subdivision. At `tau = 4` (the default) the
+//!   dragon's level 8 has RMS .00039 with 69 boundary loops against .00134 subdivided; the bunny
+//!   and the Rabbit have no dense region past the limit at 4. Below about 5 points per child a
+//!   region that counts as dense can break into sampling holes (a sphere sampled thinly on one
+//!   half: 3 loops at `tau` 3-4, none at 5). Off by default because on a 4.3 M-point scan it
+//!   wraps levels 9-10 (`tools/bench/RESULTS.md`).
 //!
 //! # Coordinates and determinism
 //! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
@@ -244,25 +237,25 @@ pub struct ReconOptions {
     /// [`ReconOptions::region_levels`] is not 0: before level `j + 1` is built, a voxel of level
     /// `j` whose 3x3x3 block holds fewer than this many points per occupied child is sparse (with
     /// its 26 neighbours, and everything below it), and its region is subdivided inside the
-    /// wrapped level. Default 4 (the prototype used 10, which on our data wraps nothing past the
-    /// limit; at 3 the dragon's level 8 breaks into 309 boundary loops, 69 at 4;
-    /// `tools/bench/RESULTS.md` has the measurements).
+    /// wrapped level. Default 4: at 10 nothing past the limit is dense on the bunny, the Rabbit
+    /// or the dragon; at 3 the dragon's level 8 breaks into 309 boundary loops, 69 at 4
+    /// (`tools/bench/RESULTS.md`).
     pub region_density: f64,
     /// Levels past the global density limit ([`ReconOptions::min_median_points`]) that are still
     /// wrapped where some region is dense enough ([`ReconOptions::region_density`]); deeper
-    /// levels, or a level where every voxel is sparse, are subdivided. Default 0 (off): on the
-    /// issue's 4.3 M-point case it would wrap level 9, which costs several times the subdivision.
+    /// levels, or a level where every voxel is sparse, are subdivided. Default 0 (off): on a 4.3
+    /// M-point scan it wraps level 9, which costs several times the subdivision.
     pub region_levels: u32,
     /// Passes of the least-squares fit of every level's vertices to the points (module
-    /// `fitting`, after the mapping and relaxation: the points-to-mesh distance is minimised with
+    /// `least_squares`, after the mapping and relaxation: the points-to-mesh distance is minimised with
     /// the connectivity fixed; subdivided levels take at most 2). 0 keeps the paper's mapping
     /// alone. Default 3.
     pub fit_passes: u32,
     /// Sample points per face for the fit (a fixed stride of the points). Default 4.
     pub fit_samples: u32,
     /// The fit runs on levels with at most this many faces: its cost grows with the faces, and
-    /// the issue's 4.3 M-point case must reach level 10 (2.2 M faces) in 3 s, so its levels 8-10
-    /// keep the mapping alone. Default 100,000 (every level of the bench's Rabbit, bunny and
+    /// a 4.3 M-point scan reaches level 10 (2.2 M faces) in 3 s with its levels 8-10 keeping the
+    /// mapping alone. Default 100,000 (every level of the bench's Rabbit, bunny and
     /// dragon hierarchies). A subdivided level past the limit is mapped afresh and can lie
     /// further from the points than the fitted level above it.
     pub fit_max_faces: usize,

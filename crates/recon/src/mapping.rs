@@ -17,21 +17,19 @@
 //! quadric instead (Gaussian weights of half an edge; a weighted plane, then `z(a, b)` of
 //! degree 2 over it by weighted least squares; the vertex moves along the plane normal onto
 //! it), which follows curved surfaces between lattice corners better. Big voxels are sampled
-//! with a fixed stride (about 256 points). Since the least-squares fit ([`crate::fitting`])
-//! moves the vertices afterwards anyway, it no longer pays for its cost.
+//! with a fixed stride (about 256 points). The least-squares fit ([`crate::least_squares`]) moves
+//! the vertices afterwards anyway, so the quadric does not pay for its cost by default.
 //!
 //! Vertices of subdivided levels ([`crate::sparse`]) have no fan voxels of their own. A vertex of
 //! subdivided level `k` (voxel edge `l`) goes onto the plane of the points in the 2x2x2
 //! level-`k` voxels around the lattice corner nearest to it (a box of `2 l`, centred within
 //! `l / 2` of the vertex on every axis), with fewer than 3 points onto that of the 2x2x2
 //! level-`k - 1` voxels around their nearest corner (`4 l`). Both come from per-voxel moments
-//! ([`crate::cellmoments`], one pass over the points per level), not from the points: this was
-//! the largest cost of deep subdivided levels (about 50 points tested per vertex on the 4.3 M
-//! dragon at level 10). It replaced the points within `l`, then `2 l`, of the vertex (a ball,
-//! point by point); on the bunny the box moves the points-to-mesh RMS of the subdivided levels
-//! by -20 % to +13 % (finest levels better, the first subdivided level worse; see
-//! `tools/bench/RESULTS.md`). Wider boxes (3x3x3 voxels) or Gaussian weights on the voxels were
-//! measured worse.
+//! ([`crate::cellmoments`], one pass over the points per level), not from the points, which on
+//! deep subdivided levels would cost about 50 points per vertex (the 4.3 M-point dragon at level
+//! 10). Against the points within `l`, then `2 l`, of the vertex (a ball, point by point), the
+//! box moves the bunny's points-to-mesh RMS of the subdivided levels by -20 % to +13 % (finest
+//! levels better, the first subdivided level worse; `tools/bench/RESULTS.md`).
 
 use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, Moments, morton};

@@ -251,8 +251,11 @@ impl<'a> Run<'a> {
     fn prepare_level(&mut self, j: u32) -> LevelReport {
         let marks = self.sparse_regions(j);
         let t = Instant::now();
-        let filled =
-            if self.opts.fill_gaps && (2..=self.trusted).contains(&j) { self.tree.levels[j as usize].fill_gaps() } else { 0 };
+        let filled = if self.opts.fill_gaps && (2..=self.trusted).contains(&j) {
+            self.tree.levels[j as usize].fill_gaps()
+        } else {
+            0
+        };
         let gap_time = t.elapsed();
         let here = self.tree.levels.get(j as usize);
         let voxels = here.map_or(0, crate::octree::Cells::len);
@@ -291,7 +294,8 @@ impl<'a> Run<'a> {
         if !(self.regions && j > self.global && j <= self.trusted) {
             return None;
         }
-        let marks = regions::mark(&self.tree.levels[j as usize - 1], &self.tree.levels[j as usize], self.opts.region_density);
+        let marks =
+            regions::mark(&self.tree.levels[j as usize - 1], &self.tree.levels[j as usize], self.opts.region_density);
         if marks.iter().all(|&s| s) {
             self.trusted = j - 1;
             return None;
@@ -367,7 +371,13 @@ impl<'a> Run<'a> {
         let t = Instant::now();
         let s = sparse::subdivide(&prev.quads, &prev.corners, &prev.slots, &prev.positions);
         rep.timings.irregular = t.elapsed();
-        Ok(LevelState { slots: s.slots, quads: s.quads, corners: s.corners, positions: s.positions, origins: s.origins })
+        Ok(LevelState {
+            slots: s.slots,
+            quads: s.quads,
+            corners: s.corners,
+            positions: s.positions,
+            origins: s.origins,
+        })
     }
 
     /// §3.6, §3.6.1 and the least-squares fit: maps the vertices of level `j` onto the points,
@@ -413,7 +423,15 @@ impl<'a> Run<'a> {
             .map(|&s| cells.find(unslot(s).0).expect("faces lie on occupied voxels") as u32)
             .collect();
         let coarse = &tree.levels[j as usize - 1];
-        mapping::map_wrapped(tree, cells, coarse, &next.quads, &face_cells, &mut next.positions, self.opts.quadric_mapping)
+        mapping::map_wrapped(
+            tree,
+            cells,
+            coarse,
+            &next.quads,
+            &face_cells,
+            &mut next.positions,
+            self.opts.quadric_mapping,
+        )
     }
 
     /// Beyond the paper: fits the vertices of level `j` to the points by least squares (module

@@ -1,4 +1,4 @@
-//! The reconstruction's promises (see `../shared/docs/reconstruction.md`), on synthetic shapes.
+//! The reconstruction's promises (the crate docs' guarantees), on synthetic shapes.
 #![allow(clippy::print_stderr, clippy::needless_range_loop)]
 
 mod support;
@@ -221,7 +221,8 @@ fn sparse_regions_keep_an_open_bowl_open() {
 #[test]
 fn auto_goes_as_deep_as_dense_regions_are_wrapped() {
     let pts = half_sparse_sphere();
-    let plain = octowrap_recon::reconstruct_with_progress(&pts, &ReconOptions::default(), &mut |_| {}).expect("reconstructs");
+    let plain =
+        octowrap_recon::reconstruct_with_progress(&pts, &ReconOptions::default(), &mut |_| {}).expect("reconstructs");
     let mut o = ReconOptions::default();
     o.region_levels = 2;
     // At 3 points per child the thin half counts as dense at level 5 and breaks into holes.
