@@ -84,12 +84,12 @@ const SHORT_RING: usize = 8;
 
 /// What the edge walk found, in report order.
 #[derive(Default)]
-struct EdgeFindings {
-    edge_count: usize,
-    boundary: Vec<Element>,
-    non_manifold: Vec<Element>,
-    conflicts: Vec<Element>,
-    conflict_count: usize,
+pub(crate) struct EdgeFindings {
+    pub(crate) edge_count: usize,
+    pub(crate) boundary: Vec<Element>,
+    pub(crate) non_manifold: Vec<Element>,
+    pub(crate) conflicts: Vec<Element>,
+    pub(crate) conflict_count: usize,
 }
 
 /// The state of the walk over the rings.
@@ -390,7 +390,7 @@ fn walk_rings(n: usize, ring: &[RingEntry], ring_start: &[u32], general_only: bo
 /// Reports what the ring walk found: duplicate faces, non-manifold edges, orientation conflicts,
 /// non-manifold vertices, and boundary edges with their loops (connected chains of boundary
 /// edges).
-fn report_edges(
+pub(crate) fn report_edges(
     n: usize,
     dup_faces: &[u32],
     found: EdgeFindings,

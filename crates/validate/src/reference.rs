@@ -8,8 +8,11 @@
 
 use octowrap_mesh::Mesh;
 
-use crate::check::{Collector, EdgeTally, ElementChecks, VertexTallies, components, finish, has_repeat, zero_area};
-use crate::report::{Code, Counts, Element, MeshReport};
+use crate::check::{
+    Collector, EdgeFindings, EdgeTally, ElementChecks, VertexTallies, components, finish, has_repeat, report_edges,
+    zero_area,
+};
+use crate::report::{Counts, Element, MeshReport};
 use crate::{ValidateOptions, dsu::Dsu};
 
 /// One face side of an edge: the corner where it starts and whether it runs from the smaller
@@ -34,68 +37,36 @@ pub(crate) fn check(mesh: &Mesh, opts: &ValidateOptions, welded_vertices: usize)
     let mut out = Collector { cap: opts.max_elements, findings: Vec::new() };
     let (usable, used) = element_checks(mesh, &mut counts, &mut out);
     let (starts, sides) = half_edges(mesh, &usable);
-    let mut edges = walk_edges(mesh, &starts, sides, &mut counts);
-    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| edges.duplicate[f as usize]).collect();
-    counts.duplicate_faces = dup_faces.len();
-    out.add(
-        Code::DuplicateFace,
-        dup_faces.iter().map(|&f| Element::Face(f)),
-        dup_faces.len(),
-        format!("faces repeating an earlier face (same vertex cycle, either way round): {}", dup_faces.len()),
-    );
-    counts.boundary_edges = edges.boundary.len();
-    counts.non_manifold_edges = edges.nm_edges.len();
-    out.add(
-        Code::NonManifoldEdge,
-        edges.nm_edges.iter().copied(),
-        edges.nm_edges.len(),
-        format!("edges shared by more than two faces: {}", edges.nm_edges.len()),
-    );
-    let conflict_edges = edges.conflicts.len();
-    out.add(
-        Code::Orientation,
-        std::mem::take(&mut edges.conflicts),
-        counts.orientation_conflicts,
-        format!(
-            "directed edges used by two faces, where neighbours disagree on orientation: {} (on {conflict_edges} edge(s))",
-            counts.orientation_conflicts
-        ),
-    );
-    let nm_vertices = non_manifold_vertices(mesh, &usable, &mut edges.corners);
-    counts.non_manifold_vertices = nm_vertices.len();
-    out.add(
-        Code::NonManifoldVertex,
-        nm_vertices.iter().map(|&v| Element::Vertex(v)),
-        nm_vertices.len(),
-        format!("vertices joining more than one fan of faces: {}", nm_vertices.len()),
-    );
-
-    // Boundary loops: connected chains of boundary edges.
-    counts.boundary_loops =
-        (0..n).filter(|&v| edges.is_boundary_vertex[v] && edges.boundary_vertices.find(v) == v).count();
-    let loops = counts.boundary_loops;
-    out.add(
-        Code::BoundaryEdge,
-        edges.boundary.iter().copied(),
-        edges.boundary.len(),
-        format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", edges.boundary.len()),
-    );
-
-    // Components: vertices joined through edges.
+    let Edges {
+        count,
+        boundary,
+        nm_edges,
+        conflicts,
+        conflict_count,
+        mut corners,
+        mut comp,
+        duplicate,
+        boundary_vertices,
+        is_boundary_vertex,
+        edges_at,
+    } = walk_edges(mesh, &starts, sides);
+    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| duplicate[f as usize]).collect();
     let tallies = VertexTallies {
-        edges: edges.edges_at.iter().map(|t| t.0).collect(),
+        edges: edges_at.iter().map(|t| t.0).collect(),
         irregular: (0..n as u32)
-            .filter(|&v| edges.edges_at[v as usize].1 != EdgeTally::default())
-            .map(|v| (v, edges.edges_at[v as usize].1))
+            .filter(|&v| edges_at[v as usize].1 != EdgeTally::default())
+            .map(|v| (v, edges_at[v as usize].1))
             .collect(),
-        non_manifold: nm_vertices,
+        non_manifold: non_manifold_vertices(mesh, &usable, &mut corners),
     };
-    let components = components(faces, crate::check::arity(faces), None, &usable, &used, &mut edges.comp, &tallies);
+    let found = EdgeFindings { edge_count: count, boundary, non_manifold: nm_edges, conflicts, conflict_count };
+    report_edges(n, &dup_faces, found, &tallies, Some((boundary_vertices, is_boundary_vertex)), &mut counts, &mut out);
+    let components = components(faces, crate::check::arity(faces), None, &usable, &used, &mut comp, &tallies);
 
     let used_count = used.iter().filter(|&&u| u).count();
     let checked_faces = usable.iter().filter(|&&u| u).count();
-    let euler = used_count as i64 - edges.count as i64 + checked_faces as i64;
-    finish(mesh, opts, &usable, counts, out, welded_vertices, edges.count, euler, components)
+    let euler = used_count as i64 - count as i64 + checked_faces as i64;
+    finish(mesh, opts, &usable, counts, out, welded_vertices, count, euler, components)
 }
 
 /// The face- and vertex-level checks, reported; returns which faces take part in the topology
@@ -198,6 +169,8 @@ struct Edges {
     boundary: Vec<Element>,
     nm_edges: Vec<Element>,
     conflicts: Vec<Element>,
+    /// Directed edges used twice in the same direction.
+    conflict_count: usize,
     /// Face corners joined across shared edges (their classes are fans).
     corners: Dsu,
     /// Vertices joined by edges.
@@ -211,8 +184,8 @@ struct Edges {
 }
 
 /// Walks the edges bucket by bucket: valence, orientation, fan unions, components, duplicate
-/// faces. Adds the orientation conflicts to `counts`.
-fn walk_edges(mesh: &Mesh, starts: &[u32], mut sides: Vec<Side>, counts: &mut Counts) -> Edges {
+/// faces.
+fn walk_edges(mesh: &Mesh, starts: &[u32], mut sides: Vec<Side>) -> Edges {
     let n = mesh.vertex_count();
     let faces = &mesh.faces;
     let mut e = Edges {
@@ -220,6 +193,7 @@ fn walk_edges(mesh: &Mesh, starts: &[u32], mut sides: Vec<Side>, counts: &mut Co
         boundary: Vec::new(),
         nm_edges: Vec::new(),
         conflicts: Vec::new(),
+        conflict_count: 0,
         corners: Dsu::new(faces.indices().len()),
         comp: Dsu::new(n),
         duplicate: vec![false; faces.len()],
@@ -264,7 +238,7 @@ fn walk_edges(mesh: &Mesh, starts: &[u32], mut sides: Vec<Side>, counts: &mut Co
             let c = usize::from(fwd > 1) + usize::from(bwd > 1);
             if c > 0 {
                 e.conflicts.push(edge);
-                counts.orientation_conflicts += c;
+                e.conflict_count += c;
                 e.edges_at[lo].1.conflicts += c as u32;
             }
             for w in group.windows(2) {
