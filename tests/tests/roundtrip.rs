@@ -3,7 +3,7 @@
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_io::{Format, ReadOptions, WriteOptions, read_path, write_path};
 use octowrap_mesh::{FaceList, Mesh};
-use octowrap_tests::shared_file;
+use octowrap_testdata::file as shared_file;
 
 /// Triangles, quads and a pentagon side by side, with coordinates that need f64
 /// (georeferenced: UTM easting near 600 km, millimetres matter).

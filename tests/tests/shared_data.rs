@@ -3,10 +3,8 @@
 //! The expected counts below are copied from the PROVENANCE.md of each dataset (points/vertices,
 //! faces). When `../shared/data` is absent, each case prints `SKIPPED` and passes.
 
-#![allow(clippy::print_stderr)]
-
 use octowrap_io::{ErrorKind, PinholeCamera, ReadOptions, read_path};
-use octowrap_tests::{shared_data, shared_file};
+use octowrap_testdata::file as shared_file;
 
 /// (path under shared/data, points, faces), from the PROVENANCE.md files.
 const COUNTS: &[(&str, usize, usize)] = &[
@@ -126,10 +124,7 @@ fn keep_invalid_gives_the_record_counts_of_provenance() {
 
 #[test]
 fn every_data_file_reads_or_fails_as_documented() {
-    let Some(root) = shared_data() else {
-        eprintln!("SKIPPED: ../shared/data is absent");
-        return;
-    };
+    let Some(root) = octowrap_testdata::dir("") else { return };
     // Files that must fail, with the kind of error.
     let expected_failures: &[(&str, ErrorKind)] = &[
         ("e57/corrupt_crc.e57", ErrorKind::Invalid),

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use common::{octowrap, root, text};
 use octowrap_io::{ReadOptions, read_path};
-use octowrap_validate::{Options, validate_mesh};
+use octowrap_validate::{ValidateOptions, validate_mesh};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -24,7 +24,7 @@ fn decimates_a_quad_torus_into_every_format() {
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(report["mode"], "decimate");
         assert_eq!(report["input_faces"], 48);
-        let mut o = Options::default();
+        let mut o = ValidateOptions::default();
         o.weld = ext == "stl";
         let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
         let r = validate_mesh(&mesh, &o);
@@ -50,7 +50,7 @@ fn error_bounds_in_units_and_percent_and_measurement() {
     let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--target-faces", "3", "--lock-border"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
-    assert_eq!(validate_mesh(&mesh, &Options::default()).counts.boundary_loops, 1);
+    assert_eq!(validate_mesh(&mesh, &ValidateOptions::default()).counts.boundary_loops, 1);
 }
 
 #[test]
@@ -115,7 +115,7 @@ fn mrq_cuts_with_an_error_and_with_a_camera() {
     let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--view", s(&camera), "--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let mesh = read_path(&out_path, &ReadOptions::default()).unwrap();
-    let r = validate_mesh(&mesh, &Options::default());
+    let r = validate_mesh(&mesh, &ValidateOptions::default());
     assert!(r.properties.watertight && r.properties.oriented, "{:?}", r.findings);
     // An MRQ output is a one-level file.
     let mrq_out = dir.path().join("cut.mrq");

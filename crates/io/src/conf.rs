@@ -306,14 +306,7 @@ mod tests {
 
     #[test]
     fn stanford_bunny_scans_line_up() {
-        let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/stanford-bunny"));
-        if !root.is_dir() {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("SKIPPED: {} absent", root.display());
-            }
-            return;
-        }
+        let Some(root) = octowrap_testdata::dir("stanford-bunny") else { return };
         let m = crate::read_path(&root.join("data/bun.conf"), &opts()).unwrap_or_else(|e| panic!("{e}"));
         // PROVENANCE.md's per-scan counts (bun000 40,256 + bun045 40,097 + bun090 30,379 + bun180
         // 40,251 + bun270 31,701 + bun315 35,336 + chin 37,738 + ear_back 32,193 + top2 38,298 +

@@ -260,14 +260,7 @@ mod tests {
 
     #[test]
     fn real_e57_files() {
-        let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/e57"));
-        if !dir.is_dir() {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("SKIPPED: {} absent", dir.display());
-            }
-            return;
-        }
+        let Some(dir) = octowrap_testdata::dir("e57") else { return };
         let mut bunny = None;
         for (name, count, colors) in [
             ("bunnyDouble.e57", 30_571, false),

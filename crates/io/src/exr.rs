@@ -327,14 +327,7 @@ mod tests {
 
     #[test]
     fn real_exr_files() {
-        let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/openexr-depth"));
-        if !dir.is_dir() {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("SKIPPED: {} absent", dir.display());
-            }
-            return;
-        }
+        let Some(dir) = octowrap_testdata::dir("openexr-depth") else { return };
         let deep = std::fs::read(dir.join("LowResLeftView_Trunks.exr")).unwrap();
         let e = read(&deep, &cam()).unwrap_err();
         assert_eq!(e.kind, ErrorKind::Unsupported, "{e}");

@@ -371,22 +371,9 @@ mod tests {
         }
     }
 
-    fn data_dir(sub: &str) -> Option<std::path::PathBuf> {
-        let d = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data")).join(sub);
-        if d.is_dir() {
-            Some(d)
-        } else {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("SKIPPED: {} absent", d.display());
-            }
-            None
-        }
-    }
-
     #[test]
     fn real_las_and_laz_files() {
-        let Some(dir) = data_dir("lidar-las") else { return };
+        let Some(dir) = octowrap_testdata::dir("lidar-las") else { return };
         let mut autzen = Vec::new();
         for (name, count, colors) in [
             ("autzen_trim.las", 110_000, true),
@@ -412,7 +399,7 @@ mod tests {
 
     #[test]
     fn cgal_oni() {
-        let Some(dir) = data_dir("cgal-data/points_3") else { return };
+        let Some(dir) = octowrap_testdata::dir("cgal-data/points_3") else { return };
         let m = read(&std::fs::read(dir.join("oni.las")).unwrap(), &opts()).unwrap();
         assert_eq!(m.vertices.len(), 1435);
     }

@@ -766,22 +766,9 @@ mod tests {
         }
     }
 
-    fn data_dir() -> Option<std::path::PathBuf> {
-        let d = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/pcl-pcd"));
-        if d.is_dir() {
-            Some(d.to_path_buf())
-        } else {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("SKIPPED: {} absent", d.display());
-            }
-            None
-        }
-    }
-
     #[test]
     fn real_pcl_files() {
-        let Some(dir) = data_dir() else { return };
+        let Some(dir) = octowrap_testdata::dir("pcl-pcd") else { return };
         for (name, count, normals, colors) in
             [("bunny.pcd", 397, false, false), ("bun0.pcd", 397, true, false), ("milk.pcd", 13_704, false, false)]
         {

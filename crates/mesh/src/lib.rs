@@ -32,6 +32,7 @@
 mod cloud;
 mod faces;
 mod hierarchy;
+#[cfg(feature = "testing")]
 pub mod shapes;
 mod weld;
 

@@ -1,10 +1,10 @@
 //! Compact moments of the children of every voxel of a level, for the vertex mapping of
 //! subdivided levels ([`crate::mapping::map_free`]).
 //!
-//! A subdivided level `k` has no wrapped voxels of its own, and its vertices (four times as many
-//! per level) used to gather the points of the 2x2x2 level-`k - 1` voxels around them one by one,
-//! about 50 points per vertex on the 4.3 M-point dragon at level 10: the largest single cost of
-//! the whole reconstruction. Instead, one pass over the points sums, for every occupied
+//! A subdivided level `k` has no wrapped voxels of its own, and its vertices are four times as
+//! many per level. Gathering the points of the 2x2x2 level-`k - 1` voxels around each vertex one
+//! by one costs about 50 points per vertex on the 4.3 M-point dragon at level 10, more than any
+//! other stage of the reconstruction. Instead, one pass over the points sums, for every occupied
 //! level-`k` voxel (a child of an occupied level-`k - 1` voxel), its count, mean and central
 //! covariance (relative to the child's corner, in units of its edge, in `f32`: 40 bytes a child);
 //! a vertex's plane is then the sum of its eight surrounding children's moments (the parallel

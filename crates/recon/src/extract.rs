@@ -50,9 +50,9 @@ const PARALLEL_CORNERS: usize = 1 << 15;
 ///
 /// Large meshes are sorted in parallel by vertex ranges: each of a few tasks scans all faces
 /// in order and counts, then places, only the corners of its own range of vertices, so every
-/// list is in face order as on one thread (no atomics, no sort afterwards; at the 4.3 M point
-/// case's level 10, 8.9 M corners, the sequential sort was a tenth of a second on one core, and
-/// scanning the faces once more per task is cheap beside the scattered writes).
+/// list is in face order as on one thread (no atomics, no sort afterwards; at level 10 of a 4.3 M-point
+/// scan, 8.9 M corners, the sequential sort takes a tenth of a second on one core, and scanning
+/// the faces once more per task is cheap beside the scattered writes).
 pub(crate) fn corners_by_vertex<T: Copy + Default + Send + Sync>(
     quads: &[[u32; 4]],
     n: usize,

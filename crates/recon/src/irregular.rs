@@ -11,8 +11,8 @@
 //!   faces are linked exactly when each is the other's partner and both exist.
 //! * The diagonal case is decided once per voxel pair, so both sides agree. The paper compares
 //!   "the principal orientation of the points within v and w"; comparing the two voxels' own
-//!   normals made false breaks on a sampled sphere in a prototype (the surface then leaked
-//!   inside), so we fit one plane to the points of both voxels together and break only when both
+//!   normals makes false breaks on a sampled sphere (the surface then leaks inside), so one plane
+//!   is fitted to the points of both voxels together, and they break only when both
 //!   hold at least 4 points and the joint plane's RMS residual exceeds 0.2 voxel: one sheet
 //!   passes, two sheets meeting at an edge (a crease or two parts touching) break.
 //! * The sets `A` and `B` of the paper are a fixed-point iteration. We run it in synchronous
@@ -96,7 +96,7 @@ fn joint_pass(cells: &Cells, coarse: &[Cells], coarse_flips: &[BTreeSet<(u64, u6
     }
     let mut m = a;
     m.merge(&b);
-    crate::fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * cells.voxel())
+    crate::plane_fit::plane(&m).is_none_or(|p| p.rms_residual() <= 0.2 * cells.voxel())
 }
 
 /// Whether the mask allows slot `key` (whose voxel must be occupied).

@@ -17,21 +17,19 @@
 //! quadric instead (Gaussian weights of half an edge; a weighted plane, then `z(a, b)` of
 //! degree 2 over it by weighted least squares; the vertex moves along the plane normal onto
 //! it), which follows curved surfaces between lattice corners better. Big voxels are sampled
-//! with a fixed stride (about 256 points). Since the least-squares fit ([`crate::fitting`])
-//! moves the vertices afterwards anyway, it no longer pays for its cost.
+//! with a fixed stride (about 256 points). The least-squares fit ([`crate::least_squares`]) moves
+//! the vertices afterwards anyway, so the quadric does not pay for its cost by default.
 //!
 //! Vertices of subdivided levels ([`crate::sparse`]) have no fan voxels of their own. A vertex of
 //! subdivided level `k` (voxel edge `l`) goes onto the plane of the points in the 2x2x2
 //! level-`k` voxels around the lattice corner nearest to it (a box of `2 l`, centred within
 //! `l / 2` of the vertex on every axis), with fewer than 3 points onto that of the 2x2x2
 //! level-`k - 1` voxels around their nearest corner (`4 l`). Both come from per-voxel moments
-//! ([`crate::cellmoments`], one pass over the points per level), not from the points: this was
-//! the largest cost of deep subdivided levels (about 50 points tested per vertex on the 4.3 M
-//! dragon at level 10). It replaced the points within `l`, then `2 l`, of the vertex (a ball,
-//! point by point); on the bunny the box moves the points-to-mesh RMS of the subdivided levels
-//! by -20 % to +13 % (finest levels better, the first subdivided level worse; see
-//! `tools/bench/RESULTS.md`). Wider boxes (3x3x3 voxels) or Gaussian weights on the voxels were
-//! measured worse.
+//! ([`crate::cellmoments`], one pass over the points per level), not from the points, which on
+//! deep subdivided levels would cost about 50 points per vertex (the 4.3 M-point dragon at level
+//! 10). Against the points within `l`, then `2 l`, of the vertex (a ball, point by point), the
+//! box moves the bunny's points-to-mesh RMS of the subdivided levels by -20 % to +13 % (finest
+//! levels better, the first subdivided level worse; `tools/bench/RESULTS.md`).
 
 use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, Moments, morton};
@@ -109,7 +107,7 @@ fn round_i64(t: f64) -> i64 {
 
 /// Fits a plane to moments taken relative to `x` and projects `x` on it (in `f64`).
 fn fit(m: &Moments, x: DVec3) -> (DVec3, Option<TangentPlane>) {
-    match crate::fit::normal(m) {
+    match crate::plane_fit::normal(m) {
         Some((c, n)) => (x - n * (-c).dot(n), Some(TangentPlane::new(c + x, n))),
         None => (x, None),
     }
@@ -200,7 +198,7 @@ pub(crate) fn map_wrapped(
                     all.merge(&cells.moments[c]);
                 }
             }
-            if let Some((c, n)) = crate::fit::normal(&all) {
+            if let Some((c, n)) = crate::plane_fit::normal(&all) {
                 let projected = x - n * (x - c).dot(n);
                 return (projected, Some(TangentPlane::new(c, n)));
             }
@@ -307,7 +305,7 @@ fn quadric_fit(points: &[(DVec3, f64)], h: f64) -> Option<(DVec3, DVec3)> {
     for &(p, w) in points {
         m.add_weighted(p, w);
     }
-    let (c, n) = crate::fit::normal(&m)?;
+    let (c, n) = crate::plane_fit::normal(&m)?;
     let u = n.any_orthonormal_vector();
     let v = n.cross(u);
     // The normal equations, upper triangle (the matrix is symmetric).

@@ -3,9 +3,9 @@
 //! the stop rules 1 and 2 of §3.5).
 //!
 //! Reading: the paper's stop rules (no face "on the opposite of v"; the cavity rule) are stated
-//! per visit, so read literally they depend on the order in which faces are processed, and in a
-//! prototype (`../shared/docs/reconstruction.md`) they both failed to keep holes open and refused
-//! to wrap one-voxel protrusions. We replace them by one order-independent predicate on slots,
+//! per visit, so read literally they depend on the order in which faces are processed; they
+//! both let holes close and refuse to wrap one-voxel protrusions. They are replaced by one
+//! order-independent predicate on slots,
 //! applied both to the regular refinement (§3.4) and to the closure (§3.5):
 //!
 //! 1. Every occupied voxel `c` of level `j + 1` gets a sheet: the plane fitted to the points of its
@@ -31,10 +31,10 @@
 //!    count long), its points' mean lies within half a voxel of their planes on average and its
 //!    points are one thin layer along that normal (standard deviation under a tenth of a voxel),
 //!    slot `(c, d)` is refused when `d . n <= -0.5`. This is the rim of a hole where the surface
-//!    curls (no flat plane fits there): without it the wrapping entered the hole and took the
-//!    rim cells' inner sides too, a lip that the vertex mapping then laid onto the outer wall
-//!    (the bunny's open bottom: 116 and 254 intersecting face pairs at levels 5 and 6, now 12 and
-//!    13; `tools/bench/RESULTS.md`). A thin part with two sides near the surface (a strut beside
+//!    curls (no flat plane fits there): without it the wrapping enters the hole and takes the
+//!    rim cells' inner sides too, a lip that the vertex mapping lays onto the outer wall (the
+//!    bunny's open bottom: 116 and 254 intersecting face pairs at levels 5 and 6 without leaning,
+//!    12 and 13 with it; `tools/bench/RESULTS.md`). A thin part with two sides near the surface (a strut beside
 //!    the dragon's hind leg) has thicker cells and keeps every slot.
 //!
 //! A closed surface keeps every outer face (no outward face looks inwards), an open sheet keeps
@@ -79,7 +79,7 @@ const LEAN_AGREEMENT: f64 = 0.8;
 const LEAN_OFFSET: f64 = 0.5;
 /// How thin (voxels, standard deviation along the common normal) a leaning voxel's points must be.
 /// Measured on the dragon: its level-7 strut beside the hind leg has cells between 0.15 and 0.25,
-/// and at 0.25 the strut was lost (RMS .00086 -> .00199); the bunny's rim cells lean at 0.07.
+/// and at 0.25 the strut is lost (RMS .00086 -> .00199); the bunny's rim cells lean at 0.07.
 const LEAN_SPREAD: f64 = 0.1;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -283,7 +283,6 @@ fn two_layers(points: &[octowrap_geom::glam::Vec3], m: DVec3, n: DVec3, h: f64) 
 /// Builds the mask of level `fine.level` from the points and the faces of the level above.
 /// Filled voxels ([`crate::regions`]) take their parent's sheet from `parent_mask` (the mask of
 /// the level above) and allow only their parent's subfaces, plus the transition's steps.
-#[allow(clippy::too_many_lines, clippy::neg_cmp_op_on_partial_ord)] // the four steps read in order; NaN is unreliable
 pub(crate) fn build(
     tree: &Octree,
     fine: &Cells,
@@ -291,17 +290,43 @@ pub(crate) fn build(
     coarse_slots: &RankMap,
     parent_mask: Option<&Mask>,
 ) -> Mask {
+    let h = fine.voxel();
+    let mut sheets = block_sheets(tree, fine, coarse, parent_mask);
+    orient_from_faces(&mut sheets, fine, coarse, coarse_slots);
+    unsign_conflicts(&mut sheets, fine);
+    spread_orientation(&mut sheets, fine);
+    tie_break(&mut sheets);
+    lean_unreliable(&mut sheets, fine);
+    let region: Vec<u8> =
+        if fine.filled.is_empty() {
+            Vec::new()
+        } else {
+            (0..fine.len())
+                .into_par_iter()
+                .map(|i| {
+                    if fine.is_filled(i) {
+                        filled_sides(fine, coarse, coarse_slots, parent_mask, &sheets, i)
+                    } else {
+                        0
+                    }
+                })
+                .collect()
+        };
+    Mask { sheets, voxel: h, region }
+}
+
+/// Step 1: every voxel's block plane, whether it is reliable, and whether its points lie in two
+/// layers. A filled voxel takes its parent's sheet.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN is unreliable
+fn block_sheets(tree: &Octree, fine: &Cells, coarse: &Cells, parent_mask: Option<&Mask>) -> Vec<Sheet> {
     let level = fine.level;
     let h = fine.voxel();
     let pts = &tree.points;
-    let faces_on = |p: u64| -> [bool; 6] { std::array::from_fn(|d| coarse_slots.contains(slot(p, d as u8))) };
-    let filled = |i: usize| fine.is_filled(i);
-    // 1. Block planes, reliability, two layers.
-    let mut sheets: Vec<Sheet> = (0..fine.len())
+    (0..fine.len())
         .into_par_iter()
         .map(|i| {
             let key = fine.keys[i];
-            if filled(i) {
+            if fine.is_filled(i) {
                 // The parent's sheet (its orientation settled a level above).
                 let inherited = parent_mask.zip(coarse.find(key >> 3)).and_then(|(m, p)| m.sheets.get(p).copied());
                 return inherited.unwrap_or(Sheet { m: DVec3::ZERO, n: DVec3::Z, state: State::Unreliable });
@@ -316,23 +341,28 @@ pub(crate) fn build(
             if around.count < 8.0 {
                 return unreliable;
             }
-            let Some(plane) = crate::fit::plane(&around) else { return unreliable };
+            let Some(plane) = crate::plane_fit::plane(&around) else { return unreliable };
             let [l0, l1, _] = plane.eigenvalues;
             if !(l0.sqrt() < 0.5 * l1.sqrt()) {
                 return unreliable;
             }
             let (m, n) = (plane.point, plane.normal);
             let mut state = State::Unsigned;
-            let own = crate::fit::plane(&fine.moments[i]);
+            let own = crate::plane_fit::plane(&fine.moments[i]);
             let planes = [Some((m, n)), own.map(|p| (p.point, p.normal))];
             if planes.iter().flatten().any(|&(m, n)| two_layers(&pts[fine.range(i)], m, n, h)) {
                 state = State::TwoSided;
             }
             Sheet { m, n, state }
         })
-        .collect();
+        .collect()
+}
 
-    // 2. Orientation from the coarse faces.
+/// Step 2: orients the unsigned sheets from the coarse faces on their parent (or, when the
+/// parent has none that vote, on the parent's block).
+fn orient_from_faces(sheets: &mut [Sheet], fine: &Cells, coarse: &Cells, coarse_slots: &RankMap) {
+    let level = fine.level;
+    let faces_on = |p: u64| -> [bool; 6] { std::array::from_fn(|d| coarse_slots.contains(slot(p, d as u8))) };
     let votes = |faces: [bool; 6], n: DVec3| -> (u32, u32) {
         let (mut pos, mut neg) = (0, 0);
         for (d, present) in faces.iter().enumerate() {
@@ -387,23 +417,27 @@ pub(crate) fn build(
             s.state = State::Signed;
         }
     });
+}
 
-    // 2b. One sheet lying across two voxel layers (a flat sheet on a voxel boundary) must not get
-    // two orientations: neighbours on the same plane (own point means within a tenth of a voxel along
-    // the normal, normals within 25 degrees) that disagree both take the tie-break below.
+/// Step 2b: one sheet lying across two voxel layers (a flat sheet on a voxel boundary) must not
+/// get two orientations: neighbours on the same plane (own point means within a tenth of a voxel
+/// along the normal, normals within 25 degrees) that disagree both take the tie-break below.
+fn unsign_conflicts(sheets: &mut [Sheet], fine: &Cells) {
+    let (level, h) = (fine.level, fine.voxel());
+    let shared: &[Sheet] = sheets;
     let conflicted: Vec<usize> = (0..fine.len())
         .into_par_iter()
-        .filter(|&i| sheets[i].state == State::Signed && !filled(i))
+        .filter(|&i| shared[i].state == State::Signed && !fine.is_filled(i))
         .filter(|&i| {
             let key = fine.keys[i];
             let mi = fine.moments[i].mean().unwrap_or_default();
             block(key, level).into_iter().flatten().any(|k| {
                 fine.find(k).is_some_and(|k| {
                     let mk = fine.moments[k].mean().unwrap_or_default();
-                    sheets[k].state == State::Signed
-                        && !filled(k)
-                        && sheets[k].n.dot(sheets[i].n) < -0.9
-                        && (mi - mk).dot(sheets[i].n).abs() < 0.1 * h
+                    shared[k].state == State::Signed
+                        && !fine.is_filled(k)
+                        && shared[k].n.dot(shared[i].n) < -0.9
+                        && (mi - mk).dot(shared[i].n).abs() < 0.1 * h
                 })
             })
         })
@@ -411,18 +445,23 @@ pub(crate) fn build(
     for i in conflicted {
         sheets[i].state = State::Unsigned;
     }
-    // 3. Spread orientation to unsettled reliable voxels, in synchronous sweeps.
+}
+
+/// Step 3: spreads orientation to unsettled reliable voxels from their signed neighbours, in
+/// synchronous sweeps.
+fn spread_orientation(sheets: &mut [Sheet], fine: &Cells) {
     for _ in 0..3 {
+        let shared: &[Sheet] = sheets;
         let updates: Vec<(usize, f64)> = (0..fine.len())
             .into_par_iter()
-            .filter(|&i| sheets[i].state == State::Unsigned)
+            .filter(|&i| shared[i].state == State::Unsigned)
             .filter_map(|i| {
                 let key = fine.keys[i];
                 let mut sum = 0.0;
-                for k in block(key, level).into_iter().flatten() {
+                for k in block(key, fine.level).into_iter().flatten() {
                     if let Some(k) = fine.find(k) {
-                        if sheets[k].state == State::Signed {
-                            sum += sheets[k].n.dot(sheets[i].n);
+                        if shared[k].state == State::Signed {
+                            sum += shared[k].n.dot(shared[i].n);
                         }
                     }
                 }
@@ -437,8 +476,11 @@ pub(crate) fn build(
             sheets[i].state = State::Signed;
         }
     }
-    // 4. Tie-break: face the positive direction of the dominant axis.
-    for s in &mut sheets {
+}
+
+/// Step 4: the sheets still unsigned face the positive direction of their dominant axis.
+fn tie_break(sheets: &mut [Sheet]) {
+    for s in sheets {
         if s.state == State::Unsigned {
             let a = s.n.abs().max_position();
             if s.n[a] < 0.0 {
@@ -447,32 +489,22 @@ pub(crate) fn build(
             s.state = State::Signed;
         }
     }
-    // 5. Unreliable voxels that continue their oriented neighbours' sheet lean with them.
+}
+
+/// Step 5: unreliable voxels that continue their oriented neighbours' sheet lean with them.
+fn lean_unreliable(sheets: &mut [Sheet], fine: &Cells) {
+    let h = fine.voxel();
+    let filled = |i: usize| fine.is_filled(i);
+    let shared: &[Sheet] = sheets;
     let leaning: Vec<(usize, DVec3)> = (0..fine.len())
         .into_par_iter()
-        .filter(|&i| sheets[i].state == State::Unreliable && !filled(i))
-        .filter_map(|i| lean(fine, &sheets, i, h, &filled))
+        .filter(|&i| shared[i].state == State::Unreliable && !filled(i))
+        .filter_map(|i| lean(fine, shared, i, h, &filled))
         .collect();
     for (i, n) in leaning {
         sheets[i].n = n;
         sheets[i].state = State::Leaning;
     }
-    let region: Vec<u8> =
-        if fine.filled.is_empty() {
-            Vec::new()
-        } else {
-            (0..fine.len())
-                .into_par_iter()
-                .map(|i| {
-                    if fine.is_filled(i) {
-                        filled_sides(fine, coarse, coarse_slots, parent_mask, &sheets, i)
-                    } else {
-                        0
-                    }
-                })
-                .collect()
-        };
-    Mask { sheets, voxel: h, region }
 }
 
 /// The side unreliable voxel `i` leans to, if it does (item 4 of the module docs): at least

@@ -1,4 +1,4 @@
-//! The reconstruction's promises (see `../shared/docs/reconstruction.md`), on synthetic shapes.
+//! The reconstruction's promises (the crate docs' guarantees), on synthetic shapes.
 #![allow(clippy::print_stderr, clippy::needless_range_loop)]
 
 mod support;
@@ -165,7 +165,7 @@ fn sparse_regions_are_subdivided_inside_closed_crack_free_levels() {
     let mut o = opts(6);
     o.region_density = 10.0;
     o.region_levels = 2;
-    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let r = octowrap_recon::reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
     let (h, tops) = build("half-sparse sphere", &pts, &o);
     assert_eq!(h.levels.len(), r.hierarchy.levels.len());
     let mut mixed = 0;
@@ -210,7 +210,7 @@ fn sparse_regions_keep_an_open_bowl_open() {
     let mut o = opts(6);
     o.region_density = 10.0;
     o.region_levels = 2;
-    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let r = octowrap_recon::reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
     assert!(r.levels.iter().any(|l| l.sparse_voxels > 0), "no sparse region");
     let (_, tops) = build("half-sparse bowl", &pts, &o);
     for (j, t) in tops.iter().enumerate().skip(2) {
@@ -221,12 +221,13 @@ fn sparse_regions_keep_an_open_bowl_open() {
 #[test]
 fn auto_goes_as_deep_as_dense_regions_are_wrapped() {
     let pts = half_sparse_sphere();
-    let plain = octowrap_recon::reconstruct_with(&pts, &ReconOptions::default(), &mut |_| {}).expect("reconstructs");
+    let plain =
+        octowrap_recon::reconstruct_with_progress(&pts, &ReconOptions::default(), &mut |_| {}).expect("reconstructs");
     let mut o = ReconOptions::default();
     o.region_levels = 2;
     // At 3 points per child the thin half counts as dense at level 5 and breaks into holes.
     o.region_density = 10.0;
-    let r = octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+    let r = octowrap_recon::reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
     let finest = r.hierarchy.levels.len() as u32 - 1;
     eprintln!("auto: {} levels without regions, {finest} with", plain.hierarchy.levels.len() - 1);
     assert_eq!(r.trusted_level, finest);

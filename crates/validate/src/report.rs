@@ -162,7 +162,7 @@ pub struct Finding {
     pub severity: Severity,
     /// How many elements have this defect.
     pub count: usize,
-    /// The first elements (at most [`Options::max_elements`](crate::Options::max_elements)).
+    /// The first elements (at most [`ValidateOptions::max_elements`](crate::ValidateOptions::max_elements)).
     pub elements: Vec<Element>,
     /// A human sentence.
     pub message: String,

@@ -1,12 +1,10 @@
 //! The named pathology fixtures in `fixtures/meshes/` and the real defect meshes in
 //! `../shared/data/mesh-defects/` give exactly the expected counts.
 
-#![allow(clippy::print_stderr)]
-
 use std::path::{Path, PathBuf};
 
 use octowrap_io::{ReadOptions, read_path};
-use octowrap_validate::{Code, MeshReport, Options, validate_mesh};
+use octowrap_validate::{Code, MeshReport, ValidateOptions, validate_mesh};
 
 fn fixture(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/meshes").join(rel)
@@ -14,7 +12,7 @@ fn fixture(rel: &str) -> PathBuf {
 
 fn check(path: &Path, weld: bool) -> MeshReport {
     let mesh = read_path(path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let mut o = Options::default();
+    let mut o = ValidateOptions::default();
     o.weld = weld;
     validate_mesh(&mesh, &o)
 }
@@ -81,7 +79,7 @@ fn defect_fixtures() {
 
 #[test]
 fn self_intersections_are_found_exactly() {
-    let mut o = Options::default();
+    let mut o = ValidateOptions::default();
     o.self_intersections = true;
     let mesh = read_path(&fixture("defects/crossing_quads.obj"), &ReadOptions::default()).unwrap();
     let r = validate_mesh(&mesh, &o);
@@ -95,20 +93,15 @@ fn self_intersections_are_found_exactly() {
         assert_eq!(validate_mesh(&mesh, &o).counts.self_intersections, Some(0), "{name}");
     }
     // Without the option the check does not run.
-    assert_eq!(validate_mesh(&mesh, &Options::default()).counts.self_intersections, None);
+    assert_eq!(validate_mesh(&mesh, &ValidateOptions::default()).counts.self_intersections, None);
 }
 
 #[test]
 fn clean_closed_shared_meshes_are_intersection_free() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/cgal-data/meshes");
-    let mut o = Options::default();
+    let mut o = ValidateOptions::default();
     o.self_intersections = true;
     for name in ["elephant.off", "armadillo.off", "bunny00.off"] {
-        let path = root.join(name);
-        if !path.is_file() {
-            eprintln!("SKIPPED: {} is absent", path.display());
-            continue;
-        }
+        let Some(path) = octowrap_testdata::file(&format!("cgal-data/meshes/{name}")) else { continue };
         let r = check(&path, false);
         assert!(r.properties.watertight && r.properties.oriented, "{name}");
         let mesh = read_path(&path, &ReadOptions::default()).unwrap();
@@ -145,18 +138,9 @@ const TABLE: &[(&str, [i64; 10])] = &[
 
 #[test]
 fn shared_defect_meshes_match_their_provenance_table() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/mesh-defects");
-    if !root.is_dir() {
-        eprintln!("SKIPPED: {} is absent", root.display());
-        return;
-    }
     let mut wrong = Vec::new();
     for (rel, e) in TABLE {
-        let path = root.join(rel);
-        if !path.is_file() {
-            eprintln!("SKIPPED: {} is absent", path.display());
-            continue;
-        }
+        let Some(path) = octowrap_testdata::file(&format!("mesh-defects/{rel}")) else { continue };
         let r = check(&path, true);
         let c = &r.counts;
         let got = [

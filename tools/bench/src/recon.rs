@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::Mesh;
-use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with_progress};
 use rayon::prelude::*;
 
 use crate::util::{best_of, shared_data};
@@ -145,7 +145,7 @@ fn errors(points: &[DVec3], mesh: &Mesh) -> ((f64, f64), (f64, f64)) {
 
 /// Boundary loops of a mesh, as the validator counts them.
 fn boundary_loops(mesh: &Mesh) -> usize {
-    octowrap_validate::validate_mesh(mesh, &octowrap_validate::Options::default()).counts.boundary_loops
+    octowrap_validate::validate_mesh(mesh, &octowrap_validate::ValidateOptions::default()).counts.boundary_loops
 }
 
 /// User plus system CPU seconds of this process so far (`/proc/self/stat`, 100 ticks a second).
@@ -183,7 +183,7 @@ fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
 }
 
 fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
-    reconstruct_with(points, o, &mut |_| {}).expect("reconstructs")
+    reconstruct_with_progress(points, o, &mut |_| {}).expect("reconstructs")
 }
 
 /// The accuracy table of one model.

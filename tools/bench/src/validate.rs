@@ -4,7 +4,7 @@ use std::process::Command;
 
 use octowrap_io::{WriteOptions, write_path};
 use octowrap_mesh::Mesh;
-use octowrap_validate::{Options, validate_mesh};
+use octowrap_validate::{ValidateOptions, validate_mesh};
 
 use crate::util::best_of_cpu;
 
@@ -14,7 +14,7 @@ pub fn report() {
     println!();
     let mesh = octowrap_mesh::shapes::torus(1000, 500, 2.0, 0.7);
     let faces = mesh.faces.len();
-    let (secs, cpu, report) = best_of_cpu(7, || validate_mesh(&mesh, &Options::default()));
+    let (secs, cpu, report) = best_of_cpu(7, || validate_mesh(&mesh, &ValidateOptions::default()));
     assert!(report.properties.watertight && report.properties.oriented, "the bench torus must be valid");
     println!("| tool | mesh | faces | time (s) | M faces/s | thread CPU (s) | M faces/s of CPU | target |");
     println!("|---|---|---|---|---|---|---|---|");
@@ -34,7 +34,7 @@ pub fn report() {
         };
         match octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()) {
             Ok(m) => {
-                let (secs, cpu, r) = best_of_cpu(5, || validate_mesh(&m, &Options::default()));
+                let (secs, cpu, r) = best_of_cpu(5, || validate_mesh(&m, &ValidateOptions::default()));
                 println!(
                     "| octowrap validate_mesh (1 thread, all checks but self-intersection) | {name}: {} boundary loops | {} | {secs:.3} | {:.1} | {cpu:.3} | {:.1} | – |",
                     r.counts.boundary_loops,

@@ -160,7 +160,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
     let bar = progress::bar(1, "partitioning");
     let result = pool.install(|| {
-        octowrap_recon::reconstruct_with(&points, &opts, &mut |p| {
+        octowrap_recon::reconstruct_with_progress(&points, &opts, &mut |p| {
             let stage = match p.stage {
                 Stage::Partitioning => "partitioning",
                 Stage::Regular => "regular refinement",

@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::ValueEnum;
 use octowrap_io::Format as MeshFormat;
 use octowrap_validate::{
-    FileResult, Format, Options, Outcome, Requirement, validate_hierarchy, validate_mesh, write_report,
+    FileResult, Format, Outcome, Requirement, ValidateOptions, validate_hierarchy, validate_mesh, write_report,
 };
 use rayon::prelude::*;
 
@@ -117,7 +117,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         .par_iter()
         .map(|path| {
             let name = path.display().to_string();
-            let mut o = Options::default();
+            let mut o = ValidateOptions::default();
             o.max_elements = args.max_elements;
             o.self_intersections = args.self_intersections || required.contains(&Requirement::IntersectionFree);
             if super::mrq::is_mrq(path) {

@@ -1,11 +1,5 @@
 //! Test support: a small independent manifold checker and synthetic point clouds.
-#![allow(
-    dead_code,
-    clippy::print_stderr,
-    clippy::too_many_lines,
-    clippy::items_after_statements,
-    clippy::needless_range_loop
-)]
+#![allow(dead_code)] // each test file uses its own subset
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -28,8 +22,30 @@ pub struct Topology {
 /// Checks the mesh is a two-manifold quad mesh with consistent orientation, from the face list
 /// alone; returns its topology or a description of the first defect.
 pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
+    let (directed, incident) = directed_edges(mesh)?;
+    let (edges, boundary) = undirected_edges(&directed);
+    single_fans(mesh, &directed, &incident, &boundary)?;
+    let nf = mesh.faces.len();
     let nv = mesh.vertices.len();
-    let mut directed: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+    Ok(Topology {
+        faces: nf,
+        vertices: nv,
+        edges,
+        boundary_edges: boundary.values().map(Vec::len).sum(),
+        boundary_loops: boundary_loops(&boundary),
+        components: components(nf, &directed),
+        euler: nv as i64 - edges as i64 + nf as i64,
+    })
+}
+
+/// Each directed edge `(a, b)` with the face that runs it.
+type Directed = BTreeMap<(u32, u32), usize>;
+
+/// Every directed edge with its face (each used once), and every vertex's faces; an error for a
+/// face that is not a quad of four distinct in-range vertices.
+fn directed_edges(mesh: &Mesh) -> Result<(Directed, Vec<Vec<usize>>), String> {
+    let nv = mesh.vertices.len();
+    let mut directed = Directed::new();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nv];
     for (f, face) in mesh.faces.iter().enumerate() {
         if face.len() != 4 {
@@ -53,7 +69,12 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
             return Err(format!("face {f} repeats a vertex"));
         }
     }
-    // Undirected edges: at most 2 faces (guaranteed by directed uniqueness), count boundary.
+    Ok((directed, incident))
+}
+
+/// The number of undirected edges (at most two faces each, as the directed edges are unique) and
+/// the boundary edges by their start vertex.
+fn undirected_edges(directed: &Directed) -> (usize, BTreeMap<u32, Vec<u32>>) {
     let mut edges = 0;
     let mut boundary: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
     for &(a, b) in directed.keys() {
@@ -64,9 +85,18 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
             edges += 1;
         }
     }
-    // Every vertex: used, and its faces form one fan (connected through edges at the vertex).
-    for v in 0..nv {
-        let fs = &incident[v];
+    (edges, boundary)
+}
+
+/// Every vertex is used, and its faces form one fan (connected through edges at the vertex) with
+/// at most one boundary edge leaving it.
+fn single_fans(
+    mesh: &Mesh,
+    directed: &Directed,
+    incident: &[Vec<usize>],
+    boundary: &BTreeMap<u32, Vec<u32>>,
+) -> Result<(), String> {
+    for (v, fs) in incident.iter().enumerate() {
         if fs.is_empty() {
             return Err(format!("vertex {v} is unused"));
         }
@@ -94,11 +124,14 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
             return Err(format!("vertex {v} has several boundary fans"));
         }
     }
-    // Boundary loops.
-    let boundary_edges: usize = boundary.values().map(Vec::len).sum();
+    Ok(())
+}
+
+/// Boundary loops: chains of boundary edges, each followed from its start vertex.
+fn boundary_loops(boundary: &BTreeMap<u32, Vec<u32>>) -> usize {
     let mut used = BTreeSet::new();
     let mut loops = 0;
-    for (&a, outs) in &boundary {
+    for (&a, outs) in boundary {
         for &b in outs {
             if used.contains(&(a, b)) {
                 continue;
@@ -112,9 +145,11 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
             }
         }
     }
-    // Components by union-find over faces.
-    let nf = mesh.faces.len();
-    let mut parent: Vec<usize> = (0..nf).collect();
+    loops
+}
+
+/// Connected components of the faces, joined across edges, by union-find.
+fn components(nf: usize, directed: &Directed) -> usize {
     fn root(p: &mut [usize], mut x: usize) -> usize {
         while p[x] != x {
             p[x] = p[p[x]];
@@ -122,22 +157,14 @@ pub fn check_manifold(mesh: &Mesh) -> Result<Topology, String> {
         }
         x
     }
-    for (&(a, b), &f) in &directed {
+    let mut parent: Vec<usize> = (0..nf).collect();
+    for (&(a, b), &f) in directed {
         if let Some(&g) = directed.get(&(b, a)) {
             let (ra, rb) = (root(&mut parent, f), root(&mut parent, g));
             parent[ra] = rb;
         }
     }
-    let components = (0..nf).filter(|&f| root(&mut parent, f) == f).count();
-    Ok(Topology {
-        faces: nf,
-        vertices: nv,
-        edges,
-        boundary_edges,
-        boundary_loops: loops,
-        components,
-        euler: nv as i64 - edges as i64 + nf as i64,
-    })
+    (0..nf).filter(|&f| root(&mut parent, f) == f).count()
 }
 
 /// Face normal (cross product of the diagonals) and centroid.

@@ -1,14 +1,14 @@
 //! Validates a mesh once and prints the time: the profiling driver for the checks
-//! (`valgrind --tool=callgrind target/release/examples/timing`).
+//! (`valgrind --tool=callgrind target/release/examples/validate_timing`).
 //!
-//! `cargo run --release -p octowrap-validate --example timing -- [NU NV | MESH-FILE]`: a closed
+//! `cargo run --release -p octowrap-bench --example validate_timing -- [NU NV | MESH-FILE]`: a closed
 //! triangulated torus of `2 * NU * NV` faces (default 1000 500), or any mesh the io crate reads;
 //! `RUNS=N` times it N times and prints the best (the bench takes the best of 7).
 
 #![allow(clippy::print_stdout, clippy::print_stderr)] // A command-line tool: printing is its job.
 
 use octowrap_mesh::Mesh;
-use octowrap_validate::{Options, validate_mesh};
+use octowrap_validate::{ValidateOptions, validate_mesh};
 
 fn main() {
     if let Some(path) = std::env::args().nth(1).filter(|a| a.parse::<u32>().is_err()) {
@@ -35,7 +35,7 @@ fn time(mesh: &Mesh) {
     let mut report = None;
     for _ in 0..runs.max(1) {
         let (t, c) = (std::time::Instant::now(), cpu_time::ThreadTime::now());
-        report = Some(validate_mesh(mesh, &Options::default()));
+        report = Some(validate_mesh(mesh, &ValidateOptions::default()));
         secs = secs.min(t.elapsed().as_secs_f64());
         cpu = cpu.min(c.elapsed().as_secs_f64());
     }

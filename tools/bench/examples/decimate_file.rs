@@ -1,5 +1,5 @@
 //! Decimates one mesh file to a ratio and prints the report as JSON (a profiling aid):
-//! `cargo run --release -p octowrap-decimate --example decimate_file -- MESH RATIO`.
+//! `cargo run --release -p octowrap-bench --example decimate_file -- MESH RATIO`.
 #![allow(clippy::print_stdout)]
 
 use std::path::Path;

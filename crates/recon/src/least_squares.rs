@@ -4,8 +4,8 @@
 //! The paper's vertex mapping (§3.6) puts every vertex on a plane fitted to the points near it,
 //! which makes the vertices lie on the surface but not the faces between them: on a coarse level
 //! a face spans a curved patch, and the points between the corners stay far from it (on the
-//! bunny's level 3 the points-to-mesh RMS was 3x the paper's Table 3, though the vertices lay on
-//! their planes). This stage keeps the connectivity and moves the vertices to minimise the
+//! bunny's level 3 the mapping alone leaves the points-to-mesh RMS at 3x the paper's Table 3,
+//! with the vertices on their planes). This stage keeps the connectivity and moves the vertices to minimise the
 //! squared distance from the points to the mesh, in the manner of Hoppe et al.'s mesh
 //! optimisation (SIGGRAPH 1993, `E_dist`), alternating two steps for a fixed number of passes:
 //!
@@ -23,8 +23,8 @@
 //!    `lambda` = [`STIFFNESS`], `kappa` = [`MEMBRANE`]) solve a sparse symmetric positive
 //!    definite system, the same for the three coordinates, by a few conjugate-gradient steps
 //!    (Jacobi preconditioner). The membrane term keeps a vertex that few samples see moving
-//!    with its neighbours: without it such vertices strayed up to 0.2 of the diagonal from the
-//!    points on the Rabbit's subdivided level 6; with it they stay as near as the mapping put
+//!    with its neighbours: without it such vertices stray up to 0.2 of the diagonal from the
+//!    points on the Rabbit's subdivided level 6; with it they stay as near as the mapping puts
 //!    them, and the subdivided levels come out closer to the points too.
 //!
 //! Each pass lowers the energy, so the points-to-mesh distance falls; the regulariser keeps

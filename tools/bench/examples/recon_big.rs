@@ -1,6 +1,6 @@
-//! Times the large case: the dragon resampled to 4.3 M points (built by the bench, cached
+//! Times the large case of `tools/bench`: the dragon resampled to 4.3 M points (built by the bench, cached
 //! as raw `f64` triples in a file) reconstructed to level 10. For profiling:
-//! `cargo run --release -p octowrap-recon --example big -- /tmp/pts.bin`, where the file is
+//! `cargo run --release -p octowrap-bench --example recon_big -- /tmp/pts.bin`, where the file is
 //! written on first use from `../shared/data/stanford-dragon/dragon_vrip.ply.gz`. A path ending
 //! in `.ply` or `.ply.gz` is read as a point cloud instead (the bunny, the dragon's own points).
 //! Prints a checksum of every level's positions and faces, and one of all levels.
@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use octowrap_geom::DVec3;
-use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with};
+use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 
 /// Area-uniform samples of the dragon with Gaussian noise of `sigma` (the bench's generator).
 fn resample(mesh: &octowrap_mesh::Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
@@ -42,8 +42,8 @@ fn main() {
             })
             .collect()
     } else {
-        let path = "/work/shared/data/stanford-dragon/dragon_vrip.ply.gz";
-        let m = octowrap_io::read_path(path.as_ref(), &octowrap_io::ReadOptions::default()).expect("dragon");
+        let path = octowrap_testdata::data_root().join("stanford-dragon/dragon_vrip.ply.gz");
+        let m = octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()).expect("dragon");
         let diag = m.vertices.bounds().diagonal();
         // A cache named `*raw*` holds the dragon's own vertices (a smaller case for profiling).
         let pts =
@@ -71,7 +71,7 @@ fn main() {
             .and_then(|s| s.lines().find(|l| l.starts_with(field)).map(str::to_owned))
             .unwrap_or_default()
     };
-    let r = reconstruct_with(&pts, &o, &mut |p| {
+    let r = reconstruct_with_progress(&pts, &o, &mut |p| {
         stage_marker(p.level, p.stage);
         if hwm {
             eprintln!("{:?} {} {}", p.stage, p.level, status("VmHWM:"));
