@@ -32,6 +32,7 @@ use std::io::Cursor;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, point_bytes};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
 /// Bytes of the E57 file header.
@@ -44,11 +45,25 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         e57::E57Reader::new(Cursor::new(data)).map_err(|e| convert("cannot read the E57 header and XML", &e))?;
     let mut merged = PointCloud::default();
     let mut total = 0u64;
-    for (k, pc) in reader.pointclouds().into_iter().enumerate() {
+    let mut budget = Budget::new(&opts.limits, data.len());
+    let clouds = reader.pointclouds();
+    // Each point cloud owns its binary section: several naming the same one would read its bytes
+    // again and again (an amplification, not a scan set).
+    let mut offsets: Vec<(u64, usize)> = clouds.iter().enumerate().map(|(k, pc)| (pc.file_offset, k)).collect();
+    offsets.sort_unstable();
+    if let Some(w) = offsets.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(Error::invalid(
+            Location::Byte(w[0].0),
+            format!("point clouds {} and {} name the same binary section at byte {}", w[0].1, w[1].1, w[0].0),
+        ));
+    }
+    for (k, pc) in clouds.into_iter().enumerate() {
         let max = opts.limits.max_points.saturating_sub(total);
         let records = justify(pc.records, 0, usize::MAX, max, "points", Location::Unknown)?;
         let has_color = pc.has_color();
         let has_intensity = pc.has_intensity();
+        let each = point_bytes(false, has_color, has_intensity);
+        budget.charge_n(records, each, &format!("points in point cloud {k}"), Location::Byte(pc.file_offset))?;
         let reserve = records.min(data.len());
         let mut cloud = PointCloud {
             positions: Vec::with_capacity(reserve),
