@@ -49,7 +49,8 @@ use crate::source::Rule;
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
 /// Reads a whole PCD input. A binary body must end where its points do: anything after is
-/// trailing data and refused.
+/// trailing data and refused, but for the zeros PCL pads a `binary_compressed` file with (never
+/// more than the expanded body's size).
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let header = Header::parse(data)?;
     let max = opts.limits.max_points;
@@ -123,7 +124,9 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
         DataKind::Compressed => {
             let sizes = data.get(h.data_start..h.data_start.checked_add(4)?)?;
             let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]);
-            Some(Rule::EndsBy { end: start + 8 + u64::from(compressed) })
+            // PCL pads the file with zeros, never beyond the expanded size.
+            let pad = h.points.saturating_mul(h.point_step as u64);
+            Some(Rule::EndsBy { end: (start + 8 + u64::from(compressed)).saturating_add(pad) })
         }
     }
 }
@@ -617,7 +620,11 @@ fn decompress_body(data: &[u8], h: &Header, budget: &mut Budget) -> Result<Vec<u
             ),
         )
     })?;
-    trailing(data, start as u64 + 8 + compressed as u64)?;
+    let end = start + 8 + compressed;
+    let pad = data.get(end..).unwrap_or_default();
+    if pad.len() as u64 > uncompressed || pad.iter().any(|&c| c != 0) {
+        trailing(data, end as u64)?;
+    }
     budget.charge(uncompressed, &|| "the binary_compressed body".to_owned(), at)?;
     if uncompressed > (compressed as u64).saturating_mul(LZF_MAX_RATIO) {
         return Err(Error::invalid(

@@ -223,7 +223,7 @@ fn stream_error<R: BufRead>(e: std::io::Error, stream: &Stream<R>, decompressed:
         Some(c) if e.kind() != std::io::ErrorKind::Interrupted && !is_os_error(&e) => Error::invalid(
             Location::Byte(c),
             format!(
-                "broken gzip stream at compressed byte {c}, after {} decompressed: {e}",
+                "broken gzip stream at compressed byte {c}, after {} decompressed",
                 bytes(decompressed as u64)
             ),
         )
