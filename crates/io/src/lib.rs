@@ -358,10 +358,11 @@ pub fn read_bytes(data: &[u8], format: Format, opts: &ReadOptions) -> Result<Mes
     Ok(mesh)
 }
 
-/// Checks that `mesh`'s points have a finite extent: every coordinate finite (NaN marks a point
-/// without a position and is passed over), and the bounding box's diagonal representable in
-/// `f64`, so that distances and squared distances between any two points are finite. The error
-/// names the point farthest out.
+/// Checks that `mesh`'s points have a usable extent: every coordinate finite (NaN marks a point
+/// without a position and is passed over), the bounding box's squared diagonal representable in
+/// `f64` (so distances and squared distances between any two points are finite), and a non-zero
+/// extent at least `f64::MIN_POSITIVE` (a subnormal one has no finite reciprocal to normalise
+/// by). The error names the point farthest out.
 pub fn check_extent(mesh: &Mesh) -> Result<()> {
     let positions = &mesh.vertices.positions;
     let mut lo = octowrap_geom::DVec3::INFINITY;
@@ -378,7 +379,21 @@ pub fn check_extent(mesh: &Mesh) -> Result<()> {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
-    if far.1.is_finite() && (hi - lo).length_squared().is_finite() || positions.iter().all(|p| p.is_nan()) {
+    if positions.iter().all(|p| p.is_nan()) {
+        return Ok(());
+    }
+    let span = (hi - lo).max_element();
+    if span > 0.0 && span < f64::MIN_POSITIVE {
+        return Err(Error::invalid(
+            Location::Unknown,
+            format!(
+                "the points span only {span:e} (a subnormal extent, below {:e}): positions so close cannot be \
+                 told apart in f64 arithmetic; scale them first",
+                f64::MIN_POSITIVE
+            ),
+        ));
+    }
+    if far.1.is_finite() && (hi - lo).length_squared().is_finite() {
         return Ok(());
     }
     let p = positions[far.0];

@@ -158,6 +158,10 @@ fn a_point_far_out_is_refused_by_index() {
         assert_eq!(e.kind, ErrorKind::Invalid, "{far}: {e}");
         assert!(e.message.contains("point 3000 ") && e.message.contains("not finite"), "{far}: {e}");
     }
+    // 3,000 distinct points within a subnormal extent cannot be normalised.
+    let tiny: String = (0..3000).map(|k| format!("{:e} 0 {:e}\n", f64::from(k) * 1e-312, f64::from(k % 7) * 1e-312)).collect();
+    let e = read_path(&write(dir.path(), "tiny.xyz", tiny.as_bytes()), &ReadOptions::default()).unwrap_err();
+    assert!(e.message.contains("subnormal extent"), "{e}");
     // NaN marks a point without a position: it is passed over.
     let p = write(dir.path(), "nan.xyz", format!("{xyz}nan nan nan\n").as_bytes());
     assert_eq!(read_path(&p, &ReadOptions::default()).unwrap().vertices.len(), 3001);
