@@ -71,7 +71,11 @@ pub(crate) fn read(path: &Path, data: &[u8], opts: &ReadOptions) -> Result<Mesh>
         let v = &mesh.vertices;
         let each = point_bytes(v.normals.is_some(), v.colors.is_some(), v.intensities.is_some());
         let kept = (v.len() * each + 4 * (mesh.faces.len() + mesh.faces.corner_count())) as u64;
-        budget.charge(kept, &|| format!("the {} points of scan '{}' and those before", v.len(), scan.file), scan.line)?;
+        budget.charge(
+            kept,
+            &|| format!("the {} points of scan '{}' and those before", v.len(), scan.file),
+            scan.line,
+        )?;
         transform(&mut mesh, scan.rotation, scan.translation);
         append(&mut merged, mesh, &scan, &file)?;
     }

@@ -373,7 +373,7 @@ pub fn check_extent(mesh: &Mesh) -> Result<()> {
             continue;
         }
         let m = p.abs().max_element();
-        if !(m <= far.1) {
+        if m > far.1 {
             far = (k, m);
         }
         lo = lo.min(*p);

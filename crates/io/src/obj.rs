@@ -26,8 +26,8 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
-use crate::text::{LineWriter, Lines, expect_f32, expect_f64, parse_f64, parse_i64, strip_comment, tokens, truncated};
 use crate::budget::{Budget, Corners};
+use crate::text::{LineWriter, Lines, expect_f32, expect_f64, parse_f64, parse_i64, strip_comment, tokens, truncated};
 use crate::{Error, Location, Mesh, ReadOptions, Result, WriteOptions};
 
 /// Reads a whole OBJ file held in memory.
@@ -45,21 +45,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let mut normals_map_one_to_one = true;
     let mut joined: Vec<u8> = Vec::new();
     let mut face = Vec::with_capacity(8);
-    while let Some(mut line) = lines.next_line() {
-        if line.last() == Some(&b'\\') {
-            joined.clear();
-            while let [head @ .., b'\\'] = line {
-                joined.extend_from_slice(head);
-                joined.push(b' ');
-                let Some(next) = lines.next_line() else {
-                    line = b"";
-                    break;
-                };
-                line = next;
-            }
-            joined.extend_from_slice(line);
-            line = &joined;
-        }
+    while let Some(line) = lines.next_line() {
+        let line = if line.last() == Some(&b'\\') { continued(line, &mut lines, &mut joined) } else { line };
         let line = strip_comment(line);
         let mut it = tokens(line);
         let Some(keyword) = it.next() else { continue };
@@ -124,12 +111,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         }
     }
     if let (Some((at, word)), true) = (first_unknown, positions.is_empty() && normals.is_empty()) {
-        return Err(Error::invalid(
-            at,
-            format!(
-                "nothing parsable: no 'v', 'vn' or 'f' statement, and '{word}' (here) is no OBJ statement"
-            ),
-        ));
+        return Err(nothing_parsable(at, &word));
     }
     let n = positions.len();
     let colors = (colors.len() == n && n > 0).then(|| {
@@ -140,12 +122,64 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     Ok(Mesh { vertices: PointCloud { positions, normals, colors, intensities: None }, faces })
 }
 
+/// A statement continued with a trailing `\\` onto the following lines, joined into `joined`.
+fn continued<'b>(line: &[u8], lines: &mut Lines<'_>, joined: &'b mut Vec<u8>) -> &'b [u8] {
+    joined.clear();
+    joined.extend_from_slice(line);
+    while joined.last() == Some(&b'\\') {
+        joined.pop();
+        joined.push(b' ');
+        let Some(next) = lines.next_line() else { break };
+        joined.extend_from_slice(next);
+    }
+    joined
+}
+
+/// The error for an input with no content and a statement that is not OBJ's.
+fn nothing_parsable(at: Location, word: &str) -> Error {
+    Error::invalid(
+        at,
+        format!("nothing parsable: no 'v', 'vn' or 'f' statement, and '{word}' (here) is no OBJ statement"),
+    )
+}
+
 /// The statements read and skipped without a word (any other is skipped too, but a file made of
 /// nothing else is refused as unparsable).
 const SKIPPED: &[&[u8]] = &[
-    b"vt", b"vp", b"l", b"p", b"o", b"g", b"s", b"mg", b"usemtl", b"mtllib", b"cstype", b"deg", b"bmat", b"step",
-    b"curv", b"curv2", b"surf", b"parm", b"trim", b"hole", b"scrv", b"sp", b"end", b"con", b"bevel", b"c_interp",
-    b"d_interp", b"lod", b"maplib", b"usemap", b"shadow_obj", b"trace_obj", b"ctech", b"stech",
+    b"vt",
+    b"vp",
+    b"l",
+    b"p",
+    b"o",
+    b"g",
+    b"s",
+    b"mg",
+    b"usemtl",
+    b"mtllib",
+    b"cstype",
+    b"deg",
+    b"bmat",
+    b"step",
+    b"curv",
+    b"curv2",
+    b"surf",
+    b"parm",
+    b"trim",
+    b"hole",
+    b"scrv",
+    b"sp",
+    b"end",
+    b"con",
+    b"bevel",
+    b"c_interp",
+    b"d_interp",
+    b"lod",
+    b"maplib",
+    b"usemap",
+    b"shadow_obj",
+    b"trace_obj",
+    b"ctech",
+    b"stech",
 ];
 
 /// The `r g b` after a vertex's `x y z` (alone, or after `w`), if there is one.

@@ -23,10 +23,10 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, Corners, point_bytes};
 use crate::text::{
     LineWriter, Lines, color_component, expect_f32, expect_f64, parse_i64, strip_comment, tokens, truncated,
 };
-use crate::budget::{Budget, Corners, point_bytes};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// The next line with content after removing comments, tokenised.

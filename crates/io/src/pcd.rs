@@ -43,9 +43,9 @@ mod lzf;
 
 use lzf::{LZF_MAX_RATIO, lzf_decompress};
 
-use crate::text::{Lines, parse_f64, tokens};
 use crate::budget::{Budget, point_bytes};
 use crate::source::Rule;
+use crate::text::{Lines, parse_f64, tokens};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
 /// Reads a whole PCD input. A binary body must end where its points do: anything after is
@@ -120,7 +120,9 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
     let start = h.data_start as u64;
     match h.data {
         DataKind::Ascii => Some(Rule::Text { from: h.data_start }),
-        DataKind::Binary => Some(Rule::EndsBy { end: start.saturating_add(h.points.saturating_mul(h.point_step as u64)) }),
+        DataKind::Binary => {
+            Some(Rule::EndsBy { end: start.saturating_add(h.points.saturating_mul(h.point_step as u64)) })
+        }
         DataKind::Compressed => {
             let sizes = data.get(h.data_start..h.data_start.checked_add(4)?)?;
             let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]);

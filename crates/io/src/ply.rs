@@ -63,7 +63,8 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
     if h.encoding == header::Encoding::Ascii {
         return Some(Rule::Text { from: 0 });
     }
-    let body = h.elements.iter().fold(0u64, |sum, el| sum.saturating_add(el.count.saturating_mul(el.max_binary_size())));
+    let body =
+        h.elements.iter().fold(0u64, |sum, el| sum.saturating_add(el.count.saturating_mul(el.max_binary_size())));
     Some(Rule::EndsBy { end: (h.body_start as u64).saturating_add(body) })
 }
 

@@ -222,10 +222,7 @@ fn stream_error<R: BufRead>(e: std::io::Error, stream: &Stream<R>, decompressed:
     match stream.compressed_offset() {
         Some(c) if e.kind() != std::io::ErrorKind::Interrupted && !is_os_error(&e) => Error::invalid(
             Location::Byte(c),
-            format!(
-                "broken gzip stream at compressed byte {c}, after {} decompressed",
-                bytes(decompressed as u64)
-            ),
+            format!("broken gzip stream at compressed byte {c}, after {} decompressed", bytes(decompressed as u64)),
         )
         .with_source(e),
         _ => Error::io(e),
@@ -270,8 +267,8 @@ mod tests {
     #[test]
     fn the_ceiling_caps_what_is_held() {
         let gz = gzip(&b"1 2 3\n".repeat(100_000));
-        let mut opts = ReadOptions::default();
-        opts.limits = Limits { max_memory: Some(100_000), ..Limits::default() };
+        let opts =
+            ReadOptions { limits: Limits { max_memory: Some(100_000), ..Limits::default() }, ..Default::default() };
         let e = load(&gz[..], Some(Path::new("a.xyz.gz")), &opts).err().unwrap();
         assert_eq!(e.kind, ErrorKind::LimitExceeded, "{e}");
         assert!(e.message.contains("--max-memory"), "{e}");

@@ -32,9 +32,9 @@ use std::io::Write;
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, PointCloud};
 
-use crate::text::{LineWriter, Tokens, truncated};
 use crate::budget::{Budget, Corners};
 use crate::source::Rule;
+use crate::text::{LineWriter, Tokens, truncated};
 use crate::{Error, Limits, Location, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// Whether `data` is a binary STL: an 80-byte header, a triangle count, and exactly 50 bytes per

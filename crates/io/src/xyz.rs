@@ -21,8 +21,8 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::PointCloud;
 
-use crate::text::{LineWriter, Lines, parse_f32, parse_f64, parse_i64, strip_comment, truncated};
 use crate::budget::{Budget, point_bytes};
+use crate::text::{LineWriter, Lines, parse_f32, parse_f64, parse_i64, strip_comment, truncated};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions, justify};
 
 /// The columns of a line: split at whitespace and commas.

@@ -2,6 +2,7 @@
 //! Each test builds its input (nothing large is committed) and reads it through `read_path`,
 //! the entry point the CLI uses.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -65,13 +66,17 @@ fn binary_ply_bomb_stops_at_the_end_of_the_declared_body() {
     assert_eq!(e.location, Location::Byte(body_end), "{e}");
     plain.truncate(plain.len() - 10);
     plain.extend_from_slice(b"\n");
-    assert_eq!(octowrap_io::read_bytes(&plain, octowrap_io::Format::Ply, &ReadOptions::default()).unwrap().vertices.len(), 3);
+    assert_eq!(
+        octowrap_io::read_bytes(&plain, octowrap_io::Format::Ply, &ReadOptions::default()).unwrap().vertices.len(),
+        3
+    );
 }
 
 #[test]
 fn text_bombs_stop_at_the_first_nul() {
     let dir = tempfile::tempdir().unwrap();
-    let header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    let header =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
     let p = write(dir.path(), "bomb.ply.gz", &ply_bomb(header, 64 << 20));
     let e = read_path(&p, &with_ceiling(16 << 20)).unwrap_err();
     let at = (header.len() + 18) as u64;
@@ -148,7 +153,7 @@ fn a_point_far_out_is_refused_by_index() {
     let mut xyz = String::new();
     for k in 0..3000 {
         let t = f64::from(k) / 3000.0;
-        xyz.push_str(&format!("{t} {} {}\n", 1.0 - t, (t * 7.0).fract()));
+        let _ = writeln!(xyz, "{t} {} {}", 1.0 - t, (t * 7.0).fract());
     }
     let ok = write(dir.path(), "cube.xyz", xyz.as_bytes());
     assert_eq!(read_path(&ok, &ReadOptions::default()).unwrap().vertices.len(), 3000);
@@ -159,7 +164,10 @@ fn a_point_far_out_is_refused_by_index() {
         assert!(e.message.contains("point 3000 ") && e.message.contains("not finite"), "{far}: {e}");
     }
     // 3,000 distinct points within a subnormal extent cannot be normalised.
-    let tiny: String = (0..3000).map(|k| format!("{:e} 0 {:e}\n", f64::from(k) * 1e-312, f64::from(k % 7) * 1e-312)).collect();
+    let mut tiny = String::new();
+    for k in 0..3000 {
+        let _ = writeln!(tiny, "{:e} 0 {:e}", f64::from(k) * 1e-312, f64::from(k % 7) * 1e-312);
+    }
     let e = read_path(&write(dir.path(), "tiny.xyz", tiny.as_bytes()), &ReadOptions::default()).unwrap_err();
     assert!(e.message.contains("subnormal extent"), "{e}");
     // NaN marks a point without a position: it is passed over.
@@ -230,8 +238,9 @@ fn binary_bodies_end_where_the_header_says() {
     let e = octowrap_io::read_bytes(&stl, octowrap_io::Format::Stl, &ReadOptions::default()).unwrap_err();
     assert_eq!((e.kind, e.location), (ErrorKind::Invalid, Location::Byte(134)), "{e}");
     // PCD: 1 point declared, garbage after it.
-    let mut pcd = b"VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA binary\n"
-        .to_vec();
+    let mut pcd =
+        b"VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA binary\n"
+            .to_vec();
     let start = pcd.len() as u64;
     pcd.extend_from_slice(&[0u8; 12]);
     pcd.extend_from_slice(b"junk");

@@ -4,8 +4,8 @@ use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
 use super::header::{Element, Encoding, Header, Property, Scalar};
-use crate::text::{Tokens, parse_i64, truncated};
 use crate::budget::{Budget, Corners, point_bytes};
+use crate::text::{Tokens, parse_i64, truncated};
 use crate::{Error, Limits, Location, Result, justify};
 
 /// What a vertex property means to us.
@@ -530,7 +530,13 @@ impl<'a> Binary<'a> {
     }
 
     /// The common `list uchar int vertex_indices` face layout, little-endian.
-    fn faces_u8_i32_le(&mut self, n: usize, item: Scalar, mut faces: FaceList, budget: &mut Budget) -> Result<FaceList> {
+    fn faces_u8_i32_le(
+        &mut self,
+        n: usize,
+        item: Scalar,
+        mut faces: FaceList,
+        budget: &mut Budget,
+    ) -> Result<FaceList> {
         let mut meter = Corners::default();
         let data = self.data;
         let mut p = self.pos;
