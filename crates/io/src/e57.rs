@@ -24,8 +24,11 @@
 //! # Hostile input
 //! The file header is checked first: its physical length and the XML section must lie within the
 //! input (the crate would otherwise allocate the declared XML length). Each scan's declared
-//! record count is checked against [`Limits::max_points`](crate::Limits); memory grows only with
-//! points actually decoded. A page whose CRC does not match fails with [`ErrorKind::Invalid`](crate::ErrorKind).
+//! record count is checked against [`Limits::max_points`](crate::Limits), and the points it
+//! declares are charged to the memory ceiling before any is decoded (bit-packed records of a
+//! constant value take no bits, so the file size cannot bound them). Two scans naming the same
+//! binary section are refused: that is one scan read many times over. A page whose CRC does not
+//! match fails with [`ErrorKind::Invalid`](crate::ErrorKind).
 
 use std::io::Cursor;
 

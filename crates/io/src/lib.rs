@@ -18,10 +18,19 @@
 //! from a look at the text ([`Format::detect`]).
 //!
 //! # Hostile input
-//! Every reader works on the whole (decompressed) input in memory and checks each count a header
-//! declares against the bytes that remain before allocating for it ([`Limits`]), so a header that
-//! declares 10^12 vertices in a 1 kB file fails at once with [`ErrorKind::LimitExceeded`]. Errors
-//! name the file, the byte offset or line, and what was expected. No reader panics on any input.
+//! Every reader parses the whole (decompressed) input in memory, but the input is loaded as a
+//! stream, gzip inflated chunk by chunk, and refused as soon as it cannot belong to its format: a
+//! text format stops at the first NUL byte, a binary body whose size the header bounds (PLY, STL,
+//! PCD) stops one byte past that bound (trailing data is an error naming its offset). The memory
+//! ceiling ([`Limits::max_memory`], 8 GiB unless set) caps what one input may make a reader hold,
+//! its bytes and everything read from them; each reader checks it before allocating for a
+//! declared count, and as its vectors grow. Every declared count is also checked against the bytes
+//! that remain ([`Limits`]), so a header that declares 10^12 vertices in a 1 kB file fails at once
+//! with [`ErrorKind::LimitExceeded`]. A `.conf` set lists at most [`Limits::max_scans`] scans. A
+//! result whose extent is not finite (a point at 1e308 beside the unit cube) is refused
+//! ([`check_extent`]), and an OBJ with nothing but unknown statements is not an empty mesh. Errors
+//! name the file, the byte offset or line (for a gzip stream, the compressed offset as well), and
+//! what was expected. No reader panics on any input; `tools/fuzz` holds a target for each.
 //!
 //! # Writing
 //! [`write_path`] writes to a temporary file beside the target and renames it into place, so a

@@ -15,6 +15,8 @@
 //!   (octowrap has no per-corner normals).
 //! * `vt`, `vp`, `l`, `p`, `o`, `g`, `s`, `usemtl`, `mtllib` and any other statement are
 //!   skipped; `#` starts a comment; a trailing `\` continues a statement on the next line.
+//! * A file with no `v`, `vn` or `f` statement but some statement that is not OBJ's is refused as
+//!   nothing parsable (random bytes named `.obj` are not an empty mesh).
 //!
 //! # Writing
 //! `v x y z` in shortest round-trip form (plus `r g b` as 0.0-1.0 when the mesh has colours),
