@@ -28,15 +28,16 @@ done
 shift $((OPTIND - 1))
 targets=("$@")
 fuzz() { cargo fuzz "$1" --fuzz-dir . "${@:2}"; }
-[ ${#targets[@]} -gt 0 ] || mapfile -t targets < <(fuzz list)
+# `stress` is a plain binary (no libFuzzer entry point), not a target.
+[ ${#targets[@]} -gt 0 ] || mapfile -t targets < <(fuzz list | grep -vx stress)
 [ -d corpus ] || ./seed.sh >/dev/null
-fuzz build --sanitizer none >/dev/null
 mkdir -p logs
 printf '%-10s %12s %8s %6s %9s %8s\n' target executions crashes ooms timeouts seconds
 found=0
 for t in "${targets[@]}"; do
     mkdir -p "corpus/$t" "artifacts/$t"
     if [ -n "$runs" ]; then stop=(-runs="$runs"); else stop=(-max_total_time="$secs"); fi
+    fuzz build --sanitizer none "$t" >"logs/$t.build.log" 2>&1 || { echo "$t: does not build (logs/$t.build.log)"; found=1; continue; }
     start=$(date +%s)
     fuzz run --sanitizer none "$t" "corpus/$t" -- \
         -fork="$jobs" -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1 \

@@ -186,6 +186,42 @@ mod tests {
         ReadOptions::default()
     }
 
+    /// CRC-32C (Castagnoli), as E57 pages store it.
+    fn crc32c(data: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in data {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 { (c >> 1) ^ 0x82F6_3B78 } else { c >> 1 };
+            }
+        }
+        !c
+    }
+
+    #[test]
+    fn scans_sharing_a_binary_section_are_refused() {
+        let mut d = tiny();
+        let offsets: Vec<u64> = e57::E57Reader::new(Cursor::new(&d[..]))
+            .unwrap()
+            .pointclouds()
+            .iter()
+            .map(|pc| pc.file_offset)
+            .collect();
+        // Point the second scan at the first one's section (zero-padded to the same length) and
+        // reseal the page.
+        let from = format!("fileOffset=\"{}\"", offsets[1]);
+        let digits = offsets[1].to_string().len();
+        let to = format!("fileOffset=\"{:0digits$}\"", offsets[0]);
+        let at = d.windows(from.len()).position(|w| w == from.as_bytes()).expect("the attribute in one page");
+        d[at..at + to.len()].copy_from_slice(to.as_bytes());
+        let page = at / 1024 * 1024;
+        let crc = crc32c(&d[page..page + 1020]);
+        d[page + 1020..page + 1024].copy_from_slice(&crc.to_be_bytes());
+        let e = read(&d, &opts()).unwrap_err();
+        assert_eq!((e.kind, e.location), (ErrorKind::Invalid, Location::Byte(offsets[0])), "{e}");
+        assert!(e.message.contains("same binary section"), "{e}");
+    }
+
     /// Points in the spherical scan of [`tiny`].
     const SPHERICAL: usize = 64;
 
