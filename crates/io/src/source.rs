@@ -125,6 +125,12 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
         }
         want = want.min(ceiling.saturating_add(1).saturating_sub(data.len() as u64)).max(1);
         let start = data.len();
+        if data.capacity() - start < want as usize {
+            // Double, but never past the ceiling (and one byte to see it passed).
+            let room = ceiling.saturating_add(1).saturating_sub(start as u64);
+            let more = (start.max(CHUNK) as u64).min(room).max(want);
+            data.reserve_exact(more as usize);
+        }
         data.resize(start + want as usize, 0);
         let n = loop {
             match stream.read(&mut data[start..]) {
