@@ -201,12 +201,8 @@ mod tests {
     #[test]
     fn scans_sharing_a_binary_section_are_refused() {
         let mut d = tiny();
-        let offsets: Vec<u64> = e57::E57Reader::new(Cursor::new(&d[..]))
-            .unwrap()
-            .pointclouds()
-            .iter()
-            .map(|pc| pc.file_offset)
-            .collect();
+        let offsets: Vec<u64> =
+            e57::E57Reader::new(Cursor::new(&d[..])).unwrap().pointclouds().iter().map(|pc| pc.file_offset).collect();
         // Point the second scan at the first one's section (zero-padded to the same length) and
         // reseal the page.
         let from = format!("fileOffset=\"{}\"", offsets[1]);

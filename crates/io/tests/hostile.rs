@@ -252,3 +252,19 @@ fn binary_bodies_end_where_the_header_says() {
     assert!(octowrap_io::read_bytes(pcd, octowrap_io::Format::Pcd, &ReadOptions::default()).is_err());
     assert!(t.elapsed() < Duration::from_secs(1));
 }
+
+#[test]
+fn every_prefix_of_a_gzipped_file_fails_cleanly() {
+    let gz = gzip_stream(&mut |w| {
+        w.write_all(BIN_HEADER.as_bytes()).unwrap();
+        for v in 0..9u8 {
+            w.write_all(&f32::from(v).to_le_bytes()).unwrap();
+        }
+    });
+    let path = Path::new("prefix.ply.gz");
+    assert_eq!(octowrap_io::read_from(&gz[..], path, &ReadOptions::default()).unwrap().1.vertices.len(), 3);
+    for n in 0..gz.len() {
+        let e = octowrap_io::read_from(&gz[..n], path, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(e.kind, ErrorKind::Invalid | ErrorKind::Unsupported), "prefix {n}: {e}");
+    }
+}
