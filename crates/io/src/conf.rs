@@ -33,6 +33,7 @@ use std::path::{Path, PathBuf};
 use octowrap_geom::DVec3;
 use octowrap_geom::glam::DQuat;
 
+use crate::budget::{Budget, point_bytes};
 use crate::text::{Lines, parse_f64, tokens};
 use crate::{Error, Format, Location, Mesh, ReadOptions, Result};
 
@@ -53,26 +54,36 @@ pub(crate) fn read(path: &Path, data: &[u8], opts: &ReadOptions) -> Result<Mesh>
             "a .conf scan set names its scans relative to its own folder: read it from a file, not standard input",
         ));
     }
-    let scans = parse(data)?;
+    let scans = parse(data, opts.limits.max_scans)?;
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let mut merged = Mesh::default();
+    let mut budget = Budget::new(&opts.limits, data.len());
     for scan in scans {
         let file = resolve(&dir, &scan)?;
         let mut inner = opts.clone();
         inner.format = None;
         inner.limits.max_points = opts.limits.max_points.saturating_sub(merged.vertices.len() as u64);
+        inner.limits.max_memory = opts.limits.max_memory.map(|m| m.saturating_sub(budget.spent()));
         let mut mesh = crate::read_path(&file, &inner)?;
+        let v = &mesh.vertices;
+        let each = point_bytes(v.normals.is_some(), v.colors.is_some(), v.intensities.is_some());
+        let kept = (v.len() * each + 4 * (mesh.faces.len() + mesh.faces.corner_count())) as u64;
+        budget.charge(
+            kept,
+            &|| format!("the {} points of scan '{}' and those before", v.len(), scan.file),
+            scan.line,
+        )?;
         transform(&mut mesh, scan.rotation, scan.translation);
         append(&mut merged, mesh, &scan, &file)?;
     }
     Ok(merged)
 }
 
-/// Parses the commands; returns the scans in file order.
-fn parse(data: &[u8]) -> Result<Vec<Scan>> {
+/// Parses the commands; returns the scans in file order, refusing more than `max_scans`.
+fn parse(data: &[u8], max_scans: u64) -> Result<Vec<Scan>> {
     let mut lines = Lines::new(data);
     let mut scans = Vec::new();
     while let Some(line) = lines.next_content_line(b'#') {
@@ -81,6 +92,15 @@ fn parse(data: &[u8]) -> Result<Vec<Scan>> {
         match word {
             b"camera" => {}
             b"bmesh" | b"mesh" => {
+                if scans.len() as u64 >= max_scans {
+                    return Err(Error::limit(
+                        lines.location(),
+                        format!(
+                            "more than {max_scans} scans in one set, the limit (raise it with --max-scans, or \
+                             Limits::max_scans)"
+                        ),
+                    ));
+                }
                 let file = it.next().ok_or_else(|| lines.invalid("expected a file name after 'bmesh'"))?;
                 let file = std::str::from_utf8(file).map_err(|_| lines.invalid("the scan's file name is not UTF-8"))?;
                 let mut v = [0f64; 7];
@@ -164,7 +184,9 @@ fn append(merged: &mut Mesh, mesh: Mesh, scan: &Scan, file: &Path) -> Result<()>
     let base = u32::try_from(merged.vertices.len())
         .ok()
         .filter(|b| u32::try_from(mesh.vertices.len()).is_ok_and(|n| b.checked_add(n).is_some()))
-        .ok_or_else(|| Error::limit(scan.line, format!("{}: too many vertices in all", file.display())))?;
+        .ok_or_else(|| {
+            Error::limit(scan.line, format!("{}: more than 2^32 vertices in all the scans", file.display()))
+        })?;
     for face in mesh.faces.iter() {
         merged.faces.push_iter(face.iter().map(|&i| i.saturating_add(base)));
     }
@@ -179,6 +201,10 @@ mod tests {
 
     fn opts() -> ReadOptions {
         ReadOptions::default()
+    }
+
+    fn parse_all(data: &[u8]) -> Result<Vec<Scan>> {
+        parse(data, u64::MAX)
     }
 
     fn ply(points: &[[f64; 3]]) -> String {
@@ -212,24 +238,24 @@ mod tests {
 
     #[test]
     fn parses_commands_and_rejects_junk() {
-        let s = parse(b"camera 0 0 0 0 0 0 1\n\n# note\nbmesh a.ply 1 2 3 0 0 0 2\n").unwrap();
+        let s = parse_all(b"camera 0 0 0 0 0 0 1\n\n# note\nbmesh a.ply 1 2 3 0 0 0 2\n").unwrap();
         assert_eq!(s.len(), 1);
         assert_eq!(s[0].rotation, DQuat::IDENTITY, "normalised");
         assert_eq!(s[0].line, Location::Line(4));
-        let s = parse(b"bmesh a.ply 0 0 0 0 0 1 0\n").unwrap();
+        let s = parse_all(b"bmesh a.ply 0 0 0 0 0 1 0\n").unwrap();
         assert_eq!(s[0].rotation, DQuat::from_xyzw(0.0, 0.0, -1.0, 0.0), "conjugated");
-        let e = parse(b"bmesh a.ply 1 2 3 0 0 0\n").unwrap_err();
+        let e = parse_all(b"bmesh a.ply 1 2 3 0 0 0\n").unwrap_err();
         assert!(e.to_string().contains("no qr"), "{e}");
-        assert_eq!(parse(b"bmesh a.ply 1 2 3 0 0 0 0\n").unwrap_err().location, Location::Line(1));
-        assert!(parse(b"bmesh a.ply 1 2 nan 0 0 0 1\n").is_err());
-        assert!(parse(b"camera 1\nscale 2\n").unwrap_err().to_string().contains("line 2"));
+        assert_eq!(parse_all(b"bmesh a.ply 1 2 3 0 0 0 0\n").unwrap_err().location, Location::Line(1));
+        assert!(parse_all(b"bmesh a.ply 1 2 nan 0 0 0 1\n").is_err());
+        assert!(parse_all(b"camera 1\nscale 2\n").unwrap_err().to_string().contains("line 2"));
     }
 
     #[test]
     fn every_prefix_is_clean() {
         let text = b"camera 0 0 0 0 0 0 1\nbmesh a.ply 1 2 3 0 0 0.7071 0.7071\nbmesh b.ply 0 0 0 0 0 0 1\n";
         for n in 0..=text.len() {
-            let _ = parse(&text[..n]);
+            let _ = parse_all(&text[..n]);
         }
     }
 

@@ -24,14 +24,18 @@
 //! # Hostile input
 //! The file header is checked first: its physical length and the XML section must lie within the
 //! input (the crate would otherwise allocate the declared XML length). Each scan's declared
-//! record count is checked against [`Limits::max_points`](crate::Limits); memory grows only with
-//! points actually decoded. A page whose CRC does not match fails with [`ErrorKind::Invalid`](crate::ErrorKind).
+//! record count is checked against [`Limits::max_points`](crate::Limits), and the points it
+//! declares are charged to the memory ceiling before any is decoded (bit-packed records of a
+//! constant value take no bits, so the file size cannot bound them). Two scans naming the same
+//! binary section are refused: that is one scan read many times over. A page whose CRC does not
+//! match fails with [`ErrorKind::Invalid`](crate::ErrorKind).
 
 use std::io::Cursor;
 
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, point_bytes};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
 /// Bytes of the E57 file header.
@@ -44,11 +48,25 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         e57::E57Reader::new(Cursor::new(data)).map_err(|e| convert("cannot read the E57 header and XML", &e))?;
     let mut merged = PointCloud::default();
     let mut total = 0u64;
-    for (k, pc) in reader.pointclouds().into_iter().enumerate() {
+    let mut budget = Budget::new(&opts.limits, data.len());
+    let clouds = reader.pointclouds();
+    // Each point cloud owns its binary section: several naming the same one would read its bytes
+    // again and again (an amplification, not a scan set).
+    let mut offsets: Vec<(u64, usize)> = clouds.iter().enumerate().map(|(k, pc)| (pc.file_offset, k)).collect();
+    offsets.sort_unstable();
+    if let Some(w) = offsets.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(Error::invalid(
+            Location::Byte(w[0].0),
+            format!("point clouds {} and {} name the same binary section at byte {}", w[0].1, w[1].1, w[0].0),
+        ));
+    }
+    for (k, pc) in clouds.into_iter().enumerate() {
         let max = opts.limits.max_points.saturating_sub(total);
         let records = justify(pc.records, 0, usize::MAX, max, "points", Location::Unknown)?;
         let has_color = pc.has_color();
         let has_intensity = pc.has_intensity();
+        let each = point_bytes(false, has_color, has_intensity);
+        budget.charge_n(records, each, &format!("points in point cloud {k}"), Location::Byte(pc.file_offset))?;
         let reserve = records.min(data.len());
         let mut cloud = PointCloud {
             positions: Vec::with_capacity(reserve),
@@ -166,6 +184,38 @@ mod tests {
 
     fn opts() -> ReadOptions {
         ReadOptions::default()
+    }
+
+    /// CRC-32C (Castagnoli), as E57 pages store it.
+    fn crc32c(data: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in data {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 { (c >> 1) ^ 0x82F6_3B78 } else { c >> 1 };
+            }
+        }
+        !c
+    }
+
+    #[test]
+    fn scans_sharing_a_binary_section_are_refused() {
+        let mut d = tiny();
+        let offsets: Vec<u64> =
+            e57::E57Reader::new(Cursor::new(&d[..])).unwrap().pointclouds().iter().map(|pc| pc.file_offset).collect();
+        // Point the second scan at the first one's section (zero-padded to the same length) and
+        // reseal the page.
+        let from = format!("fileOffset=\"{}\"", offsets[1]);
+        let digits = offsets[1].to_string().len();
+        let to = format!("fileOffset=\"{:0digits$}\"", offsets[0]);
+        let at = d.windows(from.len()).position(|w| w == from.as_bytes()).expect("the attribute in one page");
+        d[at..at + to.len()].copy_from_slice(to.as_bytes());
+        let page = at / 1024 * 1024;
+        let crc = crc32c(&d[page..page + 1020]);
+        d[page + 1020..page + 1024].copy_from_slice(&crc.to_be_bytes());
+        let e = read(&d, &opts()).unwrap_err();
+        assert_eq!((e.kind, e.location), (ErrorKind::Invalid, Location::Byte(offsets[0])), "{e}");
+        assert!(e.message.contains("same binary section"), "{e}");
     }
 
     /// Points in the spherical scan of [`tiny`].

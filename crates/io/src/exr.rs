@@ -31,6 +31,8 @@
 
 use std::io::Cursor;
 
+use crate::budget::Budget;
+
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, PointCloud};
 
@@ -183,6 +185,7 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<()> {
         return Err(Error::invalid(Location::Unknown, "EXR file has no header"));
     }
     let len = data.len() as u64;
+    let mut budget = Budget::new(&opts.limits, data.len());
     for (k, header) in meta.headers.iter().enumerate() {
         if header.deep {
             return Err(Error::unsupported(
@@ -203,6 +206,10 @@ fn precheck(data: &[u8], opts: &ReadOptions) -> Result<()> {
         }
         let bytes_per_pixel: u64 = header.channels.list.iter().map(|c| c.sample_type.bytes_per_sample() as u64).sum();
         let need = pixels.saturating_mul(bytes_per_pixel);
+        // The decoder's samples, their `f32` copies, and the points made from them.
+        let channels = header.channels.list.len() as u64;
+        let held = need.saturating_add(pixels.saturating_mul(4 * channels + 24 + 4));
+        budget.charge(held, &|| format!("EXR part {k} of {w}×{h} pixels"), Location::Unknown)?;
         let uncompressed = header.compression == exr::compression::Compression::Uncompressed;
         let can = if uncompressed { len } else { len.saturating_mul(MAX_EXPANSION) };
         if need > can {

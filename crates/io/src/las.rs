@@ -30,6 +30,7 @@ use std::io::Cursor;
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, point_bytes};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
 /// Size of the LAS 1.0-1.2 public header block; 1.3 adds 8 bytes, 1.4 another 140.
@@ -43,6 +44,13 @@ const BATCH_BYTES: usize = 16 << 20;
 /// Reads a whole LAS or LAZ input.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let pre = precheck(data, opts)?;
+    let mut budget = Budget::new(&opts.limits, data.len());
+    // The `las` crate reads from an owned copy of the input.
+    budget.charge(data.len() as u64, &|| "a copy of the input for the LAS decoder".to_owned(), Location::Unknown)?;
+    let has_color = data.get(104).is_some_and(|&f| matches!(f & 0x3f, 2 | 3 | 5 | 7 | 8 | 10));
+    // Positions, intensities, 16-bit colours and the 8-bit colours made from them.
+    let each = point_bytes(false, has_color, true) + if has_color { 6 } else { 0 };
+    budget.charge_n(usize::try_from(pre.count).unwrap_or(usize::MAX), each, "points", Location::Byte(107))?;
     let mut reader = las::Reader::new(Cursor::new(data.to_vec())).map_err(|e| {
         Error::invalid(
             Location::Unknown,

@@ -18,10 +18,19 @@
 //! from a look at the text ([`Format::detect`]).
 //!
 //! # Hostile input
-//! Every reader works on the whole (decompressed) input in memory and checks each count a header
-//! declares against the bytes that remain before allocating for it ([`Limits`]), so a header that
-//! declares 10^12 vertices in a 1 kB file fails at once with [`ErrorKind::LimitExceeded`]. Errors
-//! name the file, the byte offset or line, and what was expected. No reader panics on any input.
+//! Every reader parses the whole (decompressed) input in memory, but the input is loaded as a
+//! stream, gzip inflated chunk by chunk, and refused as soon as it cannot belong to its format: a
+//! text format stops at the first NUL byte, a binary body whose size the header bounds (PLY, STL,
+//! PCD) stops one byte past that bound (trailing data is an error naming its offset). The memory
+//! ceiling ([`Limits::max_memory`], 8 GiB unless set) caps what one input may make a reader hold,
+//! its bytes and everything read from them; each reader checks it before allocating for a
+//! declared count, and as its vectors grow. Every declared count is also checked against the bytes
+//! that remain ([`Limits`]), so a header that declares 10^12 vertices in a 1 kB file fails at once
+//! with [`ErrorKind::LimitExceeded`]. A `.conf` set lists at most [`Limits::max_scans`] scans. A
+//! result whose extent is not finite (a point at 1e308 beside the unit cube) is refused
+//! ([`check_extent`]), and an OBJ with nothing but unknown statements is not an empty mesh. Errors
+//! name the file, the byte offset or line (for a gzip stream, the compressed offset as well), and
+//! what was expected. No reader panics on any input; `tools/fuzz` holds a target for each.
 //!
 //! # Writing
 //! [`write_path`] writes to a temporary file beside the target and renames it into place, so a
@@ -34,7 +43,9 @@
 //! # Ok::<(), octowrap_io::Error>(())
 //! ```
 
+mod budget;
 mod error;
+mod source;
 mod text;
 
 mod conf;
@@ -203,6 +214,14 @@ fn strip_gz(name: &str) -> &str {
 
 /// Caps on what a reader will allocate, checked before allocating. Every reader also refuses any
 /// count its remaining input cannot hold, whatever the limits say.
+///
+/// The fields are public; start from [`Limits::default`] (or [`Limits::unlimited`]) and change
+/// the ones you need:
+///
+/// ```
+/// let mut opts = octowrap_io::ReadOptions::default();
+/// opts.limits.max_memory = Some(256 << 20); // 256 MiB
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct Limits {
@@ -210,13 +229,37 @@ pub struct Limits {
     pub max_points: u64,
     /// Most faces one input may hold. Default: `u32::MAX`.
     pub max_faces: u64,
-    /// Most bytes a compressed input may expand to. Default: 8 GiB.
-    pub max_decompressed_bytes: u64,
+    /// The memory ceiling: the most bytes one input may make a reader hold at once, its
+    /// (decompressed) content and everything read from it together. A reader checks it before
+    /// each allocation whose size the input declares or drives, and refuses with
+    /// [`ErrorKind::LimitExceeded`] once it would be passed. `None` is unlimited (on request
+    /// only). Default: [`Limits::DEFAULT_MAX_MEMORY`] (8 GiB).
+    pub max_memory: Option<u64>,
+    /// Most scans a Stanford `.conf` set may list. Default: [`Limits::DEFAULT_MAX_SCANS`].
+    pub max_scans: u64,
+}
+
+impl Limits {
+    /// The default memory ceiling: 8 GiB.
+    pub const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
+    /// The default cap on the scans of a `.conf` set: 1,000 (Stanford's largest sets list a few
+    /// dozen).
+    pub const DEFAULT_MAX_SCANS: u64 = 1000;
+
+    /// No caps but those that the input's own size and 32-bit indices impose.
+    pub fn unlimited() -> Self {
+        Self { max_memory: None, max_scans: u64::MAX, ..Self::default() }
+    }
 }
 
 impl Default for Limits {
     fn default() -> Self {
-        Self { max_points: u64::from(u32::MAX), max_faces: u64::from(u32::MAX), max_decompressed_bytes: 8 << 30 }
+        Self {
+            max_points: u64::from(u32::MAX),
+            max_faces: u64::from(u32::MAX),
+            max_memory: Some(Self::DEFAULT_MAX_MEMORY),
+            max_scans: Self::DEFAULT_MAX_SCANS,
+        }
     }
 }
 
@@ -269,26 +312,41 @@ pub fn read_path(path: &Path, opts: &ReadOptions) -> Result<Mesh> {
 /// Like [`read_path`], also telling which format was read.
 pub fn read_path_detected(path: &Path, opts: &ReadOptions) -> Result<(Format, Mesh)> {
     let name = display_name(path, "<stdin>");
-    let data = if path == Path::new("-") {
-        let mut v = Vec::new();
-        std::io::stdin().lock().read_to_end(&mut v).map_err(|e| Error::io(e).in_file(&name))?;
-        v
-    } else {
-        std::fs::read(path).map_err(|e| Error::io(e).in_file(&name))?
-    };
-    let data = decompress_if_gzip(data, &opts.limits).map_err(|e| e.in_file(&name))?;
-    let format = opts.format.or_else(|| Format::detect(Some(path), &data)).ok_or_else(|| {
-        Error::unsupported(Location::Unknown, "cannot tell the format from the extension or the content").in_file(&name)
-    })?;
-    if format == Format::Conf {
-        return conf::read(path, &data, opts).map(|m| (format, m)).map_err(|e| e.in_file(&name));
+    if path == Path::new("-") {
+        return read_from(std::io::stdin().lock(), path, opts).map_err(|e| e.in_file(&name));
     }
-    read_bytes(&data, format, opts).map(|m| (format, m)).map_err(|e| e.in_file(&name))
+    let file = std::fs::File::open(path).map_err(|e| Error::io(e).in_file(&name))?;
+    if let (Ok(meta), Some(ceiling)) = (file.metadata(), opts.limits.max_memory) {
+        if meta.len() > ceiling {
+            let e = budget::exceeded(ceiling, meta.len(), "the file's bytes", Location::Unknown);
+            return Err(e.in_file(&name));
+        }
+    }
+    read_from(file, path, opts).map_err(|e| e.in_file(&name))
+}
+
+/// Reads a point cloud or mesh from any byte stream, as [`read_path`] reads a file: gzip is
+/// decompressed as it streams in, the format is `opts.format` or else detected from the content
+/// and `path`'s extension (`path` also locates the scans of a `.conf` set), and the bytes held
+/// stay within the memory ceiling. The error names no file: callers add it with
+/// [`Error::in_file`].
+pub fn read_from(input: impl Read, path: &Path, opts: &ReadOptions) -> Result<(Format, Mesh)> {
+    let loaded = source::load(input, Some(path), opts)?;
+    let mesh = if loaded.format == Format::Conf {
+        let mesh = conf::read(path, &loaded.data, opts)?;
+        check_extent(&mesh)?;
+        mesh
+    } else {
+        read_bytes(&loaded.data, loaded.format, opts)?
+    };
+    Ok((loaded.format, mesh))
 }
 
 /// Reads an in-memory input (already decompressed) of a known format. The error names no file:
 /// callers add it with [`Error::in_file`]. Stanford `.conf` sets refer to other files and need
 /// [`read_path`].
+///
+/// The result has a finite extent ([`check_extent`]).
 pub fn read_bytes(data: &[u8], format: Format, opts: &ReadOptions) -> Result<Mesh> {
     let mesh = match format {
         Format::Ply => ply::read(data, opts),
@@ -305,26 +363,70 @@ pub fn read_bytes(data: &[u8], format: Format, opts: &ReadOptions) -> Result<Mes
         }
     }?;
     debug_assert!(mesh.vertices.attributes_consistent());
+    check_extent(&mesh)?;
     Ok(mesh)
 }
 
-/// Decompresses `data` if it starts with the gzip signature, refusing to expand beyond
-/// `limits.max_decompressed_bytes`.
+/// Checks that `mesh`'s points have a usable extent: every coordinate finite (NaN marks a point
+/// without a position and is passed over), the bounding box's squared diagonal representable in
+/// `f64` (so distances and squared distances between any two points are finite), and a non-zero
+/// extent at least `f64::MIN_POSITIVE` (a subnormal one has no finite reciprocal to normalise
+/// by). The error names the point farthest out.
+pub fn check_extent(mesh: &Mesh) -> Result<()> {
+    let positions = &mesh.vertices.positions;
+    let mut lo = octowrap_geom::DVec3::INFINITY;
+    let mut hi = octowrap_geom::DVec3::NEG_INFINITY;
+    let mut far = (0usize, 0.0f64);
+    for (k, p) in positions.iter().enumerate() {
+        if p.is_nan() {
+            continue;
+        }
+        let m = p.abs().max_element();
+        if m > far.1 {
+            far = (k, m);
+        }
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    if positions.iter().all(|p| p.is_nan()) {
+        return Ok(());
+    }
+    let span = (hi - lo).max_element();
+    if span > 0.0 && span < f64::MIN_POSITIVE {
+        return Err(Error::invalid(
+            Location::Unknown,
+            format!(
+                "the points span only {span:e} (a subnormal extent, below {:e}): positions so close cannot be \
+                 told apart in f64 arithmetic; scale them first",
+                f64::MIN_POSITIVE
+            ),
+        ));
+    }
+    if far.1.is_finite() && (hi - lo).length_squared().is_finite() {
+        return Ok(());
+    }
+    let p = positions[far.0];
+    Err(Error::invalid(
+        Location::Unknown,
+        format!(
+            "point {} at ({:e}, {:e}, {:e}) lies so far out that the points' extent is not finite in f64 \
+             (bounding box from ({:e}, {:e}, {:e}) to ({:e}, {:e}, {:e}))",
+            far.0, p.x, p.y, p.z, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        ),
+    ))
+}
+
+/// Decompresses `data` if it starts with the gzip signature, streaming, within
+/// `limits.max_memory` (the bytes held at once, the compressed input included).
 pub fn decompress_if_gzip(data: Vec<u8>, limits: &Limits) -> Result<Vec<u8>> {
-    if !data.starts_with(&[0x1f, 0x8b]) {
+    if !source::is_gzip(&data) {
         return Ok(data);
     }
-    let mut out = Vec::with_capacity(data.len().saturating_mul(4).min(1 << 30));
-    let decoder = flate2::read::MultiGzDecoder::new(&data[..]);
-    let cap = limits.max_decompressed_bytes;
-    decoder.take(cap.saturating_add(1)).read_to_end(&mut out).map_err(|e| {
-        Error::invalid(Location::Byte(0), format!("broken gzip stream after {} decompressed bytes", out.len()))
-            .with_source(e)
-    })?;
-    if out.len() as u64 > cap {
-        return Err(Error::limit(Location::Byte(0), format!("gzip data expands beyond the limit of {cap} bytes")));
-    }
-    Ok(out)
+    let mut opts = ReadOptions { limits: *limits, ..ReadOptions::default() };
+    opts.limits.max_memory = limits.max_memory.map(|m| m.saturating_sub(data.len() as u64));
+    // The format is irrelevant to plain decompression: LAS sets no early rule.
+    opts.format = Some(Format::Las);
+    source::load(&data[..], None, &opts).map(|l| l.data)
 }
 
 /// Writes `mesh` to `path` (`-` for standard output) in the format its extension names, through a
@@ -440,7 +542,7 @@ mod tests {
         let mut enc = GzEncoder::new(Vec::new(), Compression::fast());
         enc.write_all(&vec![b'a'; 100_000]).unwrap();
         let gz = enc.finish().unwrap();
-        let limits = Limits { max_decompressed_bytes: 1000, ..Limits::default() };
+        let limits = Limits { max_memory: Some(1000), ..Limits::default() };
         assert_eq!(decompress_if_gzip(gz.clone(), &limits).unwrap_err().kind, ErrorKind::LimitExceeded);
         assert_eq!(decompress_if_gzip(gz, &Limits::default()).unwrap().len(), 100_000);
         assert!(decompress_if_gzip(vec![0x1f, 0x8b, 0, 0], &Limits::default()).is_err());

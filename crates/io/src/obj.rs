@@ -15,6 +15,8 @@
 //!   (octowrap has no per-corner normals).
 //! * `vt`, `vp`, `l`, `p`, `o`, `g`, `s`, `usemtl`, `mtllib` and any other statement are
 //!   skipped; `#` starts a comment; a trailing `\` continues a statement on the next line.
+//! * A file with no `v`, `vn` or `f` statement but some statement that is not OBJ's is refused as
+//!   nothing parsable (random bytes named `.obj` are not an empty mesh).
 //!
 //! # Writing
 //! `v x y z` in shortest round-trip form (plus `r g b` as 0.0-1.0 when the mesh has colours),
@@ -26,12 +28,16 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, Corners};
 use crate::text::{LineWriter, Lines, expect_f32, expect_f64, parse_f64, parse_i64, strip_comment, tokens, truncated};
-use crate::{Error, Mesh, ReadOptions, Result, WriteOptions};
+use crate::{Error, Location, Mesh, ReadOptions, Result, WriteOptions};
 
 /// Reads a whole OBJ file held in memory.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let limits = &opts.limits;
+    let mut budget = Budget::new(limits, data.len());
+    let mut meter = Corners::default();
+    let mut first_unknown: Option<(Location, String)> = None;
     let mut lines = Lines::new(data);
     let mut positions: Vec<DVec3> = Vec::new();
     let mut colors: Vec<[f32; 3]> = Vec::new();
@@ -41,21 +47,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let mut normals_map_one_to_one = true;
     let mut joined: Vec<u8> = Vec::new();
     let mut face = Vec::with_capacity(8);
-    while let Some(mut line) = lines.next_line() {
-        if line.last() == Some(&b'\\') {
-            joined.clear();
-            while let [head @ .., b'\\'] = line {
-                joined.extend_from_slice(head);
-                joined.push(b' ');
-                let Some(next) = lines.next_line() else {
-                    line = b"";
-                    break;
-                };
-                line = next;
-            }
-            joined.extend_from_slice(line);
-            line = &joined;
-        }
+    while let Some(line) = lines.next_line() {
+        let line = if line.last() == Some(&b'\\') { continued(line, &mut lines, &mut joined) } else { line };
         let line = strip_comment(line);
         let mut it = tokens(line);
         let Some(keyword) = it.next() else { continue };
@@ -67,6 +60,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
                 let x = expect_f64(&mut it, "x", &lines)?;
                 let y = expect_f64(&mut it, "y", &lines)?;
                 let z = expect_f64(&mut it, "z", &lines)?;
+                budget.grow(&mut positions, 24 + 12, "vertices", lines.location())?;
                 positions.push(DVec3::new(x, y, z));
                 if let Some(c) = vertex_color(it, &lines)? {
                     color_max = c.iter().fold(color_max, |m, &v| m.max(v));
@@ -82,6 +76,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
                 let x = expect_f32(&mut it, "the normal's x", &lines)?;
                 let y = expect_f32(&mut it, "the normal's y", &lines)?;
                 let z = expect_f32(&mut it, "the normal's z", &lines)?;
+                budget.grow(&mut normals, 12, "normals", lines.location())?;
                 normals.push(Vec3::new(x, y, z));
             }
             b"f" => {
@@ -106,13 +101,19 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
                 if face.is_empty() {
                     return Err(lines.invalid("expected vertex indices after 'f', found the end of the line"));
                 }
-                if faces.corner_count().saturating_add(face.len()) > u32::MAX as usize {
-                    return Err(Error::limit(lines.location(), "more than 2^32 face corners in all".to_owned()));
-                }
+                meter.room(&mut budget, &faces, face.len(), lines.location())?;
                 faces.push(&face);
             }
-            _ => {}
+            k if SKIPPED.contains(&k) => {}
+            k => {
+                if first_unknown.is_none() {
+                    first_unknown = Some((lines.location(), String::from_utf8_lossy(truncated(k)).into_owned()));
+                }
+            }
         }
+    }
+    if let (Some((at, word)), true) = (first_unknown, positions.is_empty() && normals.is_empty()) {
+        return Err(nothing_parsable(at, &word));
     }
     let n = positions.len();
     let colors = (colors.len() == n && n > 0).then(|| {
@@ -122,6 +123,66 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let normals = (normals_map_one_to_one && n > 0 && normals.len() == n).then_some(normals);
     Ok(Mesh { vertices: PointCloud { positions, normals, colors, intensities: None }, faces })
 }
+
+/// A statement continued with a trailing `\\` onto the following lines, joined into `joined`.
+fn continued<'b>(line: &[u8], lines: &mut Lines<'_>, joined: &'b mut Vec<u8>) -> &'b [u8] {
+    joined.clear();
+    joined.extend_from_slice(line);
+    while joined.last() == Some(&b'\\') {
+        joined.pop();
+        joined.push(b' ');
+        let Some(next) = lines.next_line() else { break };
+        joined.extend_from_slice(next);
+    }
+    joined
+}
+
+/// The error for an input with no content and a statement that is not OBJ's.
+fn nothing_parsable(at: Location, word: &str) -> Error {
+    Error::invalid(
+        at,
+        format!("nothing parsable: no 'v', 'vn' or 'f' statement, and '{word}' (here) is no OBJ statement"),
+    )
+}
+
+/// The statements read and skipped without a word (any other is skipped too, but a file made of
+/// nothing else is refused as unparsable).
+const SKIPPED: &[&[u8]] = &[
+    b"vt",
+    b"vp",
+    b"l",
+    b"p",
+    b"o",
+    b"g",
+    b"s",
+    b"mg",
+    b"usemtl",
+    b"mtllib",
+    b"cstype",
+    b"deg",
+    b"bmat",
+    b"step",
+    b"curv",
+    b"curv2",
+    b"surf",
+    b"parm",
+    b"trim",
+    b"hole",
+    b"scrv",
+    b"sp",
+    b"end",
+    b"con",
+    b"bevel",
+    b"c_interp",
+    b"d_interp",
+    b"lod",
+    b"maplib",
+    b"usemap",
+    b"shadow_obj",
+    b"trace_obj",
+    b"ctech",
+    b"stech",
+];
 
 /// The `r g b` after a vertex's `x y z` (alone, or after `w`), if there is one.
 fn vertex_color<'a>(rest: impl Iterator<Item = &'a [u8]>, lines: &Lines<'_>) -> Result<Option<[f32; 3]>> {

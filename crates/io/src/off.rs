@@ -23,6 +23,7 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, Corners, point_bytes};
 use crate::text::{
     LineWriter, Lines, color_component, expect_f32, expect_f64, parse_i64, strip_comment, tokens, truncated,
 };
@@ -86,6 +87,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let at = lines.location();
     let nv = justify(nv, 5, lines.remaining(), limits.max_points, "vertices", at)?;
     let nf = justify(nf, 2, lines.remaining(), limits.max_faces, "faces", at)?;
+    let mut budget = Budget::new(limits, data.len());
+    budget.charge_n(nv, point_bytes(normal, color, false), "vertices", at)?;
     let mut cloud = PointCloud {
         positions: Vec::with_capacity(nv),
         normals: normal.then(|| Vec::with_capacity(nv)),
@@ -124,7 +127,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         }
         let _ = st;
     }
-    let mut faces = FaceList::with_capacity(nf, nf.saturating_mul(3).min(lines.remaining() / 2));
+    let mut meter = Corners::default();
+    let mut faces = FaceList::default();
     let mut face = Vec::with_capacity(8);
     for k in 0..nf {
         let t = next_tokens(&mut lines)
@@ -141,9 +145,7 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
             })?;
             face.push(i);
         }
-        if faces.corner_count().saturating_add(n) > u32::MAX as usize {
-            return Err(Error::limit(lines.location(), "more than 2^32 face corners in all".to_owned()));
-        }
+        meter.room(&mut budget, &faces, n, lines.location())?;
         faces.push(&face);
     }
     Ok(Mesh { vertices: cloud, faces })

@@ -43,23 +43,40 @@ mod lzf;
 
 use lzf::{LZF_MAX_RATIO, lzf_decompress};
 
+use crate::budget::{Budget, point_bytes};
+use crate::source::Rule;
 use crate::text::{Lines, parse_f64, tokens};
 use crate::{Error, Location, Mesh, ReadOptions, Result, justify};
 
-/// Reads a whole PCD input.
+/// Reads a whole PCD input. A binary body must end where its points do: anything after is
+/// trailing data and refused, but for the zeros PCL pads a `binary_compressed` file with (never
+/// more than the expanded body's size).
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let header = Header::parse(data)?;
     let max = opts.limits.max_points;
+    let mut budget = Budget::new(&opts.limits, data.len());
+    if header.point_step == 0 {
+        return Err(Error::invalid(header.data_line, "the point records are 0 bytes long (every COUNT is 0)"));
+    }
+    let at = Location::Byte(header.data_start as u64);
+    let n = justify(header.points, 0, usize::MAX, max, "points", at)?;
+    let r = &header.roles;
+    let each = point_bytes(r.normal.is_some(), r.rgb.is_some(), r.intensity.is_some());
     let mut cloud = match header.data {
-        DataKind::Ascii => read_ascii(data, &header, max, opts.keep_invalid)?,
+        DataKind::Ascii => {
+            budget.charge_n(n.min(data.len()), each, "points", header.data_line)?;
+            read_ascii(data, &header, max, opts.keep_invalid)?
+        }
         DataKind::Binary => {
             let body = data.get(header.data_start..).unwrap_or_default();
-            let at = Location::Byte(header.data_start as u64);
             justify(header.points, header.point_step as u64, body.len(), max, "points", at)?;
+            trailing(data, header.data_start as u64 + n as u64 * header.point_step as u64)?;
+            budget.charge_n(n, each, "points", at)?;
             read_binary(body, &header, Layout::Interleaved, header.data_start as u64, opts.keep_invalid)?
         }
         DataKind::Compressed => {
-            let body = decompress_body(data, &header, opts)?;
+            let body = decompress_body(data, &header, &mut budget)?;
+            budget.charge_n(n, each, "points", at)?;
             read_binary(&body, &header, Layout::FieldMajor, header.data_start as u64, opts.keep_invalid)?
         }
     };
@@ -77,6 +94,43 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         }
     }
     Ok(Mesh { vertices: cloud, faces: FaceList::default() })
+}
+
+/// Refuses anything but blanks after byte `end`.
+fn trailing(data: &[u8], end: u64) -> Result<()> {
+    let rest = usize::try_from(end).ok().and_then(|e| data.get(e..)).unwrap_or_default();
+    if rest.trim_ascii().is_empty() {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        Location::Byte(end),
+        format!("trailing data: {} bytes follow the body the header declares, which ends at byte {end}", rest.len()),
+    ))
+}
+
+/// What the header says about the bytes to come, once its `DATA` line is in `data`: an ascii body
+/// is text; a binary body ends where its points do.
+pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
+    let window = data.get(..data.len().min(1 << 20)).unwrap_or(data);
+    let has_data_line = window.split(|&c| c == b'\n').rev().skip(1).any(|l| l.trim_ascii_start().starts_with(b"DATA"));
+    if !has_data_line {
+        return None;
+    }
+    let Ok(h) = Header::parse(data) else { return Some(Rule::Free) };
+    let start = h.data_start as u64;
+    match h.data {
+        DataKind::Ascii => Some(Rule::Text { from: h.data_start }),
+        DataKind::Binary => {
+            Some(Rule::EndsBy { end: start.saturating_add(h.points.saturating_mul(h.point_step as u64)) })
+        }
+        DataKind::Compressed => {
+            let sizes = data.get(h.data_start..h.data_start.checked_add(4)?)?;
+            let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]);
+            // PCL pads the file with zeros, never beyond the expanded size.
+            let pad = h.points.saturating_mul(h.point_step as u64);
+            Some(Rule::EndsBy { end: (start + 8 + u64::from(compressed)).saturating_add(pad) })
+        }
+    }
 }
 
 /// How the body is stored.
@@ -536,7 +590,7 @@ fn parse_ascii_value(tok: &[u8], field: &Field) -> Option<f64> {
 }
 
 /// Expands a `binary_compressed` body after checking its sizes against the header and limits.
-fn decompress_body(data: &[u8], h: &Header, opts: &ReadOptions) -> Result<Vec<u8>> {
+fn decompress_body(data: &[u8], h: &Header, budget: &mut Budget) -> Result<Vec<u8>> {
     let start = h.data_start;
     let at = Location::Byte(start as u64);
     let word = |k: usize| -> Result<u32> {
@@ -568,16 +622,12 @@ fn decompress_body(data: &[u8], h: &Header, opts: &ReadOptions) -> Result<Vec<u8
             ),
         )
     })?;
-    justify(h.points, 0, usize::MAX, opts.limits.max_points, "points", at)?;
-    if uncompressed > opts.limits.max_decompressed_bytes {
-        return Err(Error::limit(
-            at,
-            format!(
-                "binary_compressed expands to {uncompressed} bytes, beyond the limit of {}",
-                opts.limits.max_decompressed_bytes
-            ),
-        ));
+    let end = start + 8 + compressed;
+    let pad = data.get(end..).unwrap_or_default();
+    if pad.len() as u64 > uncompressed || pad.iter().any(|&c| c != 0) {
+        trailing(data, end as u64)?;
     }
+    budget.charge(uncompressed, &|| "the binary_compressed body".to_owned(), at)?;
     if uncompressed > (compressed as u64).saturating_mul(LZF_MAX_RATIO) {
         return Err(Error::invalid(
             at,

@@ -37,14 +37,35 @@ mod header;
 
 use std::io::Write;
 
+use crate::budget::Budget;
+use crate::source::Rule;
 use crate::text::LineWriter;
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions};
 
 /// Reads a whole PLY file held in memory.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let header = header::parse(data)?;
-    let (vertices, faces) = body::read(data, &header, &opts.limits)?;
+    let mut budget = Budget::new(&opts.limits, data.len());
+    let (vertices, faces) = body::read(data, &header, &opts.limits, &mut budget)?;
     Ok(Mesh { vertices, faces })
+}
+
+/// What the header says about the bytes to come, once it is complete in `data`: an ascii file is
+/// text throughout; a binary body is at most as long as its records can be (each list as long as
+/// its count type allows).
+pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
+    let window = data.get(..data.len().min(1 << 20)).unwrap_or(data);
+    let complete = window.windows(12).any(|w| w.starts_with(b"end_header") && matches!(w[10], b'\n' | b'\r'));
+    if !complete {
+        return None;
+    }
+    let Ok(h) = header::parse(data) else { return Some(Rule::Free) };
+    if h.encoding == header::Encoding::Ascii {
+        return Some(Rule::Text { from: 0 });
+    }
+    let body =
+        h.elements.iter().fold(0u64, |sum, el| sum.saturating_add(el.count.saturating_mul(el.max_binary_size())));
+    Some(Rule::EndsBy { end: (h.body_start as u64).saturating_add(body) })
 }
 
 /// Whether every coordinate is exactly an `f32` (then `float` loses nothing).

@@ -10,8 +10,8 @@
 //!
 //! A binary file may itself start with the word `solid`, so the size decides: a file whose size is
 //! exactly `84 + 50 × count` is binary ([`looks_binary`]); otherwise one starting with `solid` and
-//! without NUL bytes in its first 512 is read as ascii, and anything else as binary (trailing bytes
-//! after the declared triangles are ignored).
+//! without NUL bytes in its first 512 is read as ascii, and anything else as binary (bytes after
+//! the declared triangles are trailing data, an error).
 //!
 //! # Shared vertices
 //! STL stores every triangle's corners separately, and the reader keeps them so: a file of `n`
@@ -32,6 +32,8 @@ use std::io::Write;
 use octowrap_geom::DVec3;
 use octowrap_mesh::{FaceList, PointCloud};
 
+use crate::budget::{Budget, Corners};
+use crate::source::Rule;
 use crate::text::{LineWriter, Tokens, truncated};
 use crate::{Error, Limits, Location, Mesh, ReadOptions, Result, WriteOptions, justify};
 
@@ -59,15 +61,21 @@ struct Soup {
     positions: Vec<DVec3>,
     faces: FaceList,
     max_points: u64,
+    budget: Budget,
+    corners: Corners,
 }
 
 impl Soup {
-    fn new(triangles: usize, limits: &Limits) -> Self {
-        Self {
+    /// Room for `triangles` (charged to `budget` first).
+    fn new(triangles: usize, limits: &Limits, mut budget: Budget, at: Location) -> Result<Self> {
+        budget.charge_n(triangles, 3 * 24 + 16, "triangles", at)?;
+        Ok(Self {
             positions: Vec::with_capacity(triangles.saturating_mul(3)),
             faces: FaceList::with_capacity(triangles, triangles.saturating_mul(3)),
             max_points: limits.max_points,
-        }
+            budget,
+            corners: Corners { charged: triangles as u64 * 4 + 1 },
+        })
     }
 
     fn vertex(&mut self, p: DVec3, at: Location) -> Result<u32> {
@@ -75,8 +83,15 @@ impl Soup {
         if next >= self.max_points || next >= u64::from(u32::MAX) {
             return Err(Error::limit(at, format!("more than {} vertices", self.max_points.min(u64::from(u32::MAX)))));
         }
+        self.budget.grow(&mut self.positions, 24, "vertices", at)?;
         self.positions.push(p);
         Ok(next as u32)
+    }
+
+    fn face(&mut self, corners: &[u32], at: Location) -> Result<()> {
+        self.corners.room(&mut self.budget, &self.faces, corners.len(), at)?;
+        self.faces.push(corners);
+        Ok(())
     }
 
     fn finish(self) -> Mesh {
@@ -86,10 +101,22 @@ impl Soup {
 
 /// Reads a whole STL file held in memory, ascii or binary.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
-    if looks_ascii(data) { read_ascii(data, &opts.limits) } else { read_binary(data, &opts.limits) }
+    let budget = Budget::new(&opts.limits, data.len());
+    if looks_ascii(data) { read_ascii(data, &opts.limits, budget) } else { read_binary(data, &opts.limits, budget) }
 }
 
-fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
+/// What the start of an STL says about the bytes to come: a binary file ends after the
+/// triangles its header counts. (One that starts like ascii is left to the reader.)
+pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
+    let head = data.get(..512)?;
+    if data.trim_ascii_start().starts_with(b"solid") && !head.contains(&0) {
+        return Some(Rule::Free);
+    }
+    let n = u32::from_le_bytes([head[80], head[81], head[82], head[83]]);
+    Some(Rule::EndsBy { end: 84 + 50 * u64::from(n) })
+}
+
+fn read_binary(data: &[u8], limits: &Limits, budget: Budget) -> Result<Mesh> {
     let Some(count) = data.get(80..84) else {
         return Err(Error::invalid(
             Location::Byte(0),
@@ -99,7 +126,17 @@ fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
     let count = u32::from_le_bytes([count[0], count[1], count[2], count[3]]);
     let body = data.get(84..).unwrap_or_default();
     let n = justify(u64::from(count), 50, body.len(), limits.max_faces, "triangles", Location::Byte(80))?;
-    let mut soup = Soup::new(n, limits);
+    if body.len() > 50 * n {
+        return Err(Error::invalid(
+            Location::Byte(84 + 50 * n as u64),
+            format!(
+                "trailing data: {} bytes follow the {n} triangles the header counts, which end at byte {}",
+                body.len() - 50 * n,
+                84 + 50 * n
+            ),
+        ));
+    }
+    let mut soup = Soup::new(n, limits, budget, Location::Byte(80))?;
     let f =
         |b: &[u8], o: usize| f64::from(b.get(o..o + 4).map_or(0.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])));
     for (k, t) in body.chunks_exact(50).take(n).enumerate() {
@@ -109,14 +146,14 @@ fn read_binary(data: &[u8], limits: &Limits) -> Result<Mesh> {
             let o = 12 + 12 * c;
             *slot = soup.vertex(DVec3::new(f(t, o), f(t, o + 4), f(t, o + 8)), at)?;
         }
-        soup.faces.push(&tri);
+        soup.face(&tri, at)?;
     }
     Ok(soup.finish())
 }
 
-fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
+fn read_ascii(data: &[u8], limits: &Limits, budget: Budget) -> Result<Mesh> {
     let mut t = Tokens::new(data, 0, 1);
-    let mut soup = Soup::new(data.len() / 256, limits);
+    let mut soup = Soup::new(data.len() / 256, limits, budget, Location::Line(1))?;
     let mut corners: Vec<u32> = Vec::with_capacity(3);
     let expect = |t: &mut Tokens<'_>, word: &[u8]| -> Result<()> {
         match t.next_token() {
@@ -207,10 +244,7 @@ fn read_ascii(data: &[u8], limits: &Limits) -> Result<Mesh> {
             if soup.faces.len() as u64 >= limits.max_faces {
                 return Err(Error::limit(t.location(), format!("more than {} facets", limits.max_faces)));
             }
-            if soup.faces.corner_count().saturating_add(corners.len()) > u32::MAX as usize {
-                return Err(Error::limit(t.location(), "more than 2^32 face corners in all".to_owned()));
-            }
-            soup.faces.push(&corners);
+            soup.face(&corners, t.location())?;
         }
     }
     Ok(soup.finish())

@@ -21,6 +21,7 @@ use std::io::Write;
 use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::PointCloud;
 
+use crate::budget::{Budget, point_bytes};
 use crate::text::{LineWriter, Lines, parse_f32, parse_f64, parse_i64, strip_comment, truncated};
 use crate::{Error, Mesh, ReadOptions, Result, WriteOptions, justify};
 
@@ -32,6 +33,7 @@ fn columns(line: &[u8]) -> impl Iterator<Item = &[u8]> {
 /// Reads a whole XYZ/PTS/PWN file held in memory.
 pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
     let limits = &opts.limits;
+    let mut budget = Budget::new(limits, data.len());
     let mut lines = Lines::new(data);
     let mut cloud = PointCloud::default();
     let mut layout: Option<usize> = None;
@@ -52,7 +54,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
                 ))
             })?;
             let n = justify(declared, 6, lines.remaining() + 1, limits.max_points, "points", lines.location())?;
-            cloud.positions.reserve(n);
+            budget.charge_n(n, 24, "points", lines.location())?;
+            cloud.positions.reserve_exact(n);
             continue;
         }
         let n = *layout.get_or_insert_with(|| {
@@ -74,6 +77,8 @@ pub(crate) fn read(data: &[u8], opts: &ReadOptions) -> Result<Mesh> {
         if cloud.positions.len() as u64 >= limits.max_points {
             return Err(Error::limit(lines.location(), format!("more than {} points", limits.max_points)));
         }
+        let each = point_bytes(cloud.normals.is_some(), cloud.colors.is_some(), cloud.intensities.is_some());
+        budget.grow(&mut cloud.positions, each, "points", lines.location())?;
         let num = |k: usize, what: &str| -> Result<f64> {
             parse_f64(cols[k]).ok_or_else(|| {
                 lines.invalid(format!(

@@ -4,6 +4,7 @@ use octowrap_geom::{DVec3, Vec3};
 use octowrap_mesh::{FaceList, PointCloud};
 
 use super::header::{Element, Encoding, Header, Property, Scalar};
+use crate::budget::{Budget, Corners, point_bytes};
 use crate::text::{Tokens, parse_i64, truncated};
 use crate::{Error, Limits, Location, Result, justify};
 
@@ -94,6 +95,10 @@ impl VertexLayout {
         })
     }
 
+    fn point_bytes(&self) -> usize {
+        point_bytes(self.normals, self.colors, self.intensity)
+    }
+
     fn cloud(&self, n: usize) -> PointCloud {
         PointCloud {
             positions: Vec::with_capacity(n),
@@ -138,8 +143,14 @@ fn is_face_list(p: &Property) -> bool {
     matches!(p, Property::List { name, .. } if name == "vertex_indices" || name == "vertex_index")
 }
 
-/// The body, read into a cloud and a face list.
-pub(crate) fn read(data: &[u8], header: &Header, limits: &Limits) -> Result<(PointCloud, FaceList)> {
+/// The body, read into a cloud and a face list. Anything after the records the header declares
+/// is trailing data and refused (blanks excepted).
+pub(crate) fn read(
+    data: &[u8],
+    header: &Header,
+    limits: &Limits,
+    budget: &mut Budget,
+) -> Result<(PointCloud, FaceList)> {
     let mut vertices = None;
     let mut faces = None;
     match header.encoding {
@@ -147,37 +158,50 @@ pub(crate) fn read(data: &[u8], header: &Header, limits: &Limits) -> Result<(Poi
             let mut t = Tokens::new(data, header.body_start, header.body_line);
             for el in &header.elements {
                 if el.name == "vertex" && vertices.is_none() {
-                    vertices = Some(ascii_vertices(&mut t, el, limits)?);
+                    vertices = Some(ascii_vertices(&mut t, el, limits, budget)?);
                 } else if el.name == "face" && faces.is_none() && el.props.iter().any(is_face_list) {
-                    faces = Some(ascii_faces(&mut t, el, limits)?);
+                    faces = Some(ascii_faces(&mut t, el, limits, budget)?);
                 } else {
                     ascii_skip(&mut t, el)?;
                 }
+            }
+            if let Some(tok) = t.next_token() {
+                return Err(Error::invalid(
+                    t.location(),
+                    format!(
+                        "trailing data: '{}' follows the last record the header declares",
+                        String::from_utf8_lossy(truncated(tok))
+                    ),
+                ));
             }
         }
         Encoding::BinaryLe | Encoding::BinaryBe => {
             let mut b = Binary { data, pos: header.body_start, be: header.encoding == Encoding::BinaryBe };
             for el in &header.elements {
                 if el.name == "vertex" && vertices.is_none() {
-                    vertices = Some(b.vertices(el, limits)?);
+                    vertices = Some(b.vertices(el, limits, budget)?);
                 } else if el.name == "face" && faces.is_none() && el.props.iter().any(is_face_list) {
-                    faces = Some(b.faces(el, limits)?);
+                    faces = Some(b.faces(el, limits, budget)?);
                 } else {
                     b.skip(el)?;
                 }
+            }
+            let rest = data.get(b.pos..).unwrap_or_default();
+            if !rest.trim_ascii().is_empty() {
+                return Err(Error::invalid(
+                    b.at(),
+                    format!(
+                        "trailing data: {} bytes follow the last record the header declares, which ends at byte {}",
+                        rest.len(),
+                        b.pos
+                    ),
+                ));
             }
         }
     }
     let vertices = vertices
         .ok_or_else(|| Error::invalid(Location::Line(1), "the header declares no 'vertex' element".to_owned()))?;
     Ok((vertices, faces.unwrap_or_default()))
-}
-
-fn corner_limit(faces: &FaceList, n: usize, at: Location) -> Result<()> {
-    if faces.corner_count().saturating_add(n) > u32::MAX as usize {
-        return Err(Error::limit(at, "more than 2^32 face corners in all".to_owned()));
-    }
-    Ok(())
 }
 
 fn index_u32(v: i64, at: Location) -> Result<u32> {
@@ -188,10 +212,11 @@ fn index_u32(v: i64, at: Location) -> Result<u32> {
 // ascii: a token stream; each value takes at least 2 bytes (a digit and a separator, the last
 // one excepted), which is what `justify` checks counts against.
 
-fn ascii_vertices(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<PointCloud> {
+fn ascii_vertices(t: &mut Tokens<'_>, el: &Element, limits: &Limits, budget: &mut Budget) -> Result<PointCloud> {
     let layout = VertexLayout::new(el)?;
     let n =
         justify(el.count, 2 * el.props.len() as u64, t.remaining() + 1, limits.max_points, "vertices", t.location())?;
+    budget.charge_n(n, layout.point_bytes(), "vertices", t.location())?;
     let mut cloud = layout.cloud(n);
     let mut v = [0.0f64; 11];
     let props: Vec<(Role, &Property)> = layout.roles.iter().copied().zip(&el.props).collect();
@@ -250,9 +275,10 @@ fn ascii_skip_list(t: &mut Tokens<'_>, name: &str) -> Result<()> {
     Ok(())
 }
 
-fn ascii_faces(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<FaceList> {
+fn ascii_faces(t: &mut Tokens<'_>, el: &Element, limits: &Limits, budget: &mut Budget) -> Result<FaceList> {
     let n = justify(el.count, 2 * el.props.len() as u64, t.remaining() + 1, limits.max_faces, "faces", t.location())?;
-    let mut faces = FaceList::with_capacity(n, n.saturating_mul(3).min(t.remaining() / 2));
+    let mut meter = Corners::default();
+    let mut faces = FaceList::default();
     let mut buf = Vec::with_capacity(16);
     if let [Property::List { name, .. }] = &el.props[..] {
         // The common layout: the corner list alone.
@@ -269,7 +295,7 @@ fn ascii_faces(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<Face
                 };
                 buf.push(index_u32(i, t.location())?);
             }
-            corner_limit(&faces, c, t.location())?;
+            meter.room(budget, &faces, c, t.location())?;
             faces.push(&buf);
         }
         return Ok(faces);
@@ -285,7 +311,7 @@ fn ascii_faces(t: &mut Tokens<'_>, el: &Element, limits: &Limits) -> Result<Face
                         let i = t.int("a vertex index")?;
                         buf.push(index_u32(i, t.location())?);
                     }
-                    corner_limit(&faces, c, t.location())?;
+                    meter.room(budget, &faces, c, t.location())?;
                     faces.push(&buf);
                     done = true;
                 }
@@ -387,10 +413,11 @@ impl<'a> Binary<'a> {
         Ok(())
     }
 
-    fn vertices(&mut self, el: &Element, limits: &Limits) -> Result<PointCloud> {
+    fn vertices(&mut self, el: &Element, limits: &Limits, budget: &mut Budget) -> Result<PointCloud> {
         let layout = VertexLayout::new(el)?;
         let min = el.min_binary_size() as u64;
         let n = justify(el.count, min, self.remaining(), limits.max_points, "vertices", self.at())?;
+        budget.charge_n(n, layout.point_bytes(), "vertices", self.at())?;
         let mut cloud = layout.cloud(n);
         if let Some(rs) = el.fixed_size() {
             // n * rs <= remaining, checked by `justify`.
@@ -458,15 +485,17 @@ impl<'a> Binary<'a> {
         }
     }
 
-    fn faces(&mut self, el: &Element, limits: &Limits) -> Result<FaceList> {
+    fn faces(&mut self, el: &Element, limits: &Limits, budget: &mut Budget) -> Result<FaceList> {
         let min = el.min_binary_size() as u64;
         let n = justify(el.count, min, self.remaining(), limits.max_faces, "faces", self.at())?;
-        let mut faces = FaceList::with_capacity(n, n.saturating_mul(3).min(self.remaining()));
+        let faces = FaceList::default();
+        let mut meter = Corners::default();
         if let [Property::List { count: Scalar::U8, item: item @ (Scalar::I32 | Scalar::U32), .. }] = el.props[..] {
             if !self.be {
-                return self.faces_u8_i32_le(n, item, faces);
+                return self.faces_u8_i32_le(n, item, faces, budget);
             }
         }
+        let mut faces = faces;
         let mut buf = Vec::with_capacity(16);
         for k in 0..n {
             let mut done = false;
@@ -486,7 +515,7 @@ impl<'a> Binary<'a> {
                             let i = self.int(*item, &|| format!("a vertex index of face {k}"))?;
                             buf.push(index_u32(i, at)?);
                         }
-                        corner_limit(&faces, c, self.at())?;
+                        meter.room(budget, &faces, c, self.at())?;
                         faces.push(&buf);
                         done = true;
                     }
@@ -501,7 +530,14 @@ impl<'a> Binary<'a> {
     }
 
     /// The common `list uchar int vertex_indices` face layout, little-endian.
-    fn faces_u8_i32_le(&mut self, n: usize, item: Scalar, mut faces: FaceList) -> Result<FaceList> {
+    fn faces_u8_i32_le(
+        &mut self,
+        n: usize,
+        item: Scalar,
+        mut faces: FaceList,
+        budget: &mut Budget,
+    ) -> Result<FaceList> {
+        let mut meter = Corners::default();
         let data = self.data;
         let mut p = self.pos;
         for k in 0..n {
@@ -529,7 +565,7 @@ impl<'a> Binary<'a> {
                     ));
                 }
             }
-            corner_limit(&faces, c, Location::Byte(p as u64))?;
+            meter.room(budget, &faces, c, Location::Byte(p as u64))?;
             faces.push_iter(bytes.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
             p += 1 + 4 * c;
         }

@@ -116,6 +116,26 @@ impl Property {
             Self::List { count, .. } => count.size(),
         }
     }
+
+    /// The most bytes one value of this property can take in a binary body (a list as long as its
+    /// count type allows).
+    pub(crate) fn max_binary_size(&self) -> u64 {
+        match self {
+            Self::Scalar { ty, .. } => ty.size() as u64,
+            Self::List { count, item, .. } => {
+                let most: u64 = match count {
+                    Scalar::I8 => 127,
+                    Scalar::U8 => 255,
+                    Scalar::I16 => 32_767,
+                    Scalar::U16 => 65_535,
+                    Scalar::I32 => i32::MAX as u64,
+                    Scalar::U32 => u64::from(u32::MAX),
+                    _ => i64::MAX as u64,
+                };
+                (count.size() as u64).saturating_add(most.saturating_mul(item.size() as u64))
+            }
+        }
+    }
 }
 
 /// An `element <name> <count>` and its properties.
@@ -137,6 +157,11 @@ impl Element {
     /// The fewest bytes one record takes in a binary body.
     pub(crate) fn min_binary_size(&self) -> usize {
         self.props.iter().map(Property::min_binary_size).sum()
+    }
+
+    /// The most bytes one record can take in a binary body.
+    pub(crate) fn max_binary_size(&self) -> u64 {
+        self.props.iter().fold(0u64, |s, p| s.saturating_add(p.max_binary_size()))
     }
 }
 

@@ -1,0 +1,284 @@
+//! Loading an input: the bytes of a file or stream, gunzipped as they stream in, read chunk by
+//! chunk and refused as soon as they cannot belong to the format.
+//!
+//! The readers parse a whole input held in memory, but nothing is inflated blindly first: the
+//! decompressed stream is read in 64 KiB chunks and checked as it grows.
+//! * The memory ceiling ([`Limits::max_memory`](crate::Limits)) caps the bytes held.
+//! * Once the format and enough of its header are in, the format gives a [`Rule`]: a binary body
+//!   whose size the header bounds (binary PLY, binary STL, binary PCD) is read up to that bound and
+//!   one byte more, which is trailing data and refused; a text format refuses the first NUL byte,
+//!   which no text holds (a bomb of zeros behind a text header stops in its first chunk).
+//! * A broken gzip stream is reported at the compressed byte where the inflater stopped, with the
+//!   decompressed bytes produced before it.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use crate::budget::{bytes, exceeded};
+use crate::{Error, Format, Location, ReadOptions, Result};
+
+/// How much is read at a time.
+const CHUNK: usize = 64 << 10;
+
+/// How far the early checks look for a header before giving up on a rule (the reader then
+/// reports what is wrong with the header).
+const HEADER_WINDOW: usize = 1 << 20;
+
+/// What the format says about the bytes still to come.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Rule {
+    /// Text from byte `from` on: a NUL byte there is refused.
+    Text { from: usize },
+    /// The header bounds the input: nothing may follow byte `end` (exclusive).
+    EndsBy { end: u64 },
+    /// Nothing to check early (formats read whole by their libraries).
+    Free,
+}
+
+/// An input read into memory.
+pub(crate) struct Loaded {
+    /// Its format.
+    pub format: Format,
+    /// Its (decompressed) bytes.
+    pub data: Vec<u8>,
+}
+
+/// A `BufRead` that counts the bytes its consumer takes (the compressed offset of a gzip stream).
+struct Counted<R> {
+    inner: R,
+    consumed: u64,
+}
+
+impl<R: BufRead> Read for Counted<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.consumed += n as u64;
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for Counted<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        self.inner.fill_buf()
+    }
+
+    fn consume(&mut self, amt: usize) {
+        self.consumed += amt as u64;
+        self.inner.consume(amt);
+    }
+}
+
+/// The decompressed stream.
+enum Stream<R: BufRead> {
+    Plain(R),
+    Gzip(Box<flate2::bufread::MultiGzDecoder<Counted<R>>>),
+}
+
+impl<R: BufRead> Stream<R> {
+    /// The compressed bytes consumed so far, for a gzip stream.
+    fn compressed_offset(&self) -> Option<u64> {
+        match self {
+            Self::Plain(_) => None,
+            Self::Gzip(d) => Some(d.get_ref().consumed),
+        }
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match self {
+            Self::Plain(r) => r.read(buf),
+            Self::Gzip(d) => d.read(buf),
+        }
+    }
+}
+
+/// Whether `data` starts with the gzip signature.
+pub(crate) fn is_gzip(data: &[u8]) -> bool {
+    data.starts_with(&[0x1f, 0x8b])
+}
+
+/// Reads `input` (gzipped or not) into memory under `opts`' limits, and tells its format
+/// (`opts.format`, else detected from the content and `path`'s extension).
+pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) -> Result<Loaded> {
+    let mut input = BufReader::with_capacity(CHUNK, input);
+    let head = loop {
+        match input.fill_buf() {
+            Ok(b) => break b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(Error::io(e)),
+        }
+    };
+    let mut stream = if is_gzip(head) {
+        Stream::Gzip(Box::new(flate2::bufread::MultiGzDecoder::new(Counted { inner: input, consumed: 0 })))
+    } else {
+        Stream::Plain(input)
+    };
+    let ceiling = opts.limits.max_memory.unwrap_or(u64::MAX);
+    let mut data: Vec<u8> = Vec::new();
+    let mut format = opts.format;
+    let mut rule: Option<Rule> = None;
+    let mut checked = 0usize;
+    loop {
+        let mut want = CHUNK as u64;
+        if let Some(Rule::EndsBy { end }) = rule {
+            // One byte past the bound is enough to know there is trailing data.
+            want = want.min((end + 1).saturating_sub(data.len() as u64)).max(1);
+        }
+        want = want.min(ceiling.saturating_add(1).saturating_sub(data.len() as u64)).max(1);
+        let start = data.len();
+        if data.capacity() - start < want as usize {
+            // Double, but never past the ceiling (and one byte to see it passed).
+            let room = ceiling.saturating_add(1).saturating_sub(start as u64);
+            let more = (start.max(CHUNK) as u64).min(room).max(want);
+            data.reserve_exact(more as usize);
+        }
+        data.resize(start + want as usize, 0);
+        let n = loop {
+            match stream.read(&mut data[start..]) {
+                Ok(n) => break n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    data.truncate(start);
+                    return Err(stream_error(e, &stream, start));
+                }
+            }
+        };
+        data.truncate(start + n);
+        if data.len() as u64 > ceiling {
+            return Err(exceeded(ceiling, data.len() as u64, "the input's bytes", Location::Byte(ceiling)));
+        }
+        let eof = n == 0;
+        if format.is_none() && (eof || data.len() >= 4096) {
+            format = detect_early(path, &data, eof);
+        }
+        if let (Some(f), None) = (format, rule) {
+            rule = rule_for(f, &data, eof);
+        }
+        match rule {
+            Some(Rule::Text { from }) => {
+                let from = from.max(checked);
+                if let Some(k) = data.get(from..).and_then(|t| t.iter().position(|&c| c == 0)) {
+                    let at = from + k;
+                    return Err(Error::invalid(
+                        Location::Byte(at as u64),
+                        format!(
+                            "a NUL byte in what must be {} text{}: the input is not text from here on",
+                            format.map_or("", Format::name),
+                            compressed_note(&stream)
+                        ),
+                    ));
+                }
+                checked = data.len();
+            }
+            Some(Rule::EndsBy { end }) if data.len() as u64 > end => {
+                return Err(Error::invalid(
+                    Location::Byte(end),
+                    format!(
+                        "trailing data: the header's counts end the body at byte {end} at most, but the input goes \
+                         on{}",
+                        compressed_note(&stream)
+                    ),
+                ));
+            }
+            _ => {}
+        }
+        if eof {
+            break;
+        }
+    }
+    let format = format.or_else(|| Format::detect(path, &data)).ok_or_else(|| {
+        Error::unsupported(Location::Unknown, "cannot tell the format from the extension or the content")
+    })?;
+    data.shrink_to_fit();
+    Ok(Loaded { format, data })
+}
+
+/// The format, once the first bytes are in: a signature, else the extension, else (only with the
+/// whole input, since a binary STL's signature is its size) a look at the content.
+fn detect_early(path: Option<&Path>, data: &[u8], eof: bool) -> Option<Format> {
+    if eof {
+        return Format::detect(path, data);
+    }
+    let starts = |m: &[u8]| data.starts_with(m);
+    if starts(b"ply\n") || starts(b"ply\r\n") {
+        return Some(Format::Ply);
+    }
+    let sniffed = Format::sniff(data).filter(|&f| f != Format::Stl);
+    sniffed.or_else(|| path.and_then(Format::from_path))
+}
+
+/// The rule `format` sets for `data`, once enough of its header is in (`None`: not yet).
+fn rule_for(format: Format, data: &[u8], eof: bool) -> Option<Rule> {
+    let rule = match format {
+        Format::Obj | Format::Off | Format::Xyz | Format::Conf => Some(Rule::Text { from: 0 }),
+        Format::Ply => crate::ply::stream_rule(data),
+        Format::Stl => crate::stl::stream_rule(data),
+        Format::Pcd => crate::pcd::stream_rule(data),
+        Format::Las | Format::E57 | Format::Exr => Some(Rule::Free),
+    };
+    if rule.is_none() && (eof || data.len() >= HEADER_WINDOW) { Some(Rule::Free) } else { rule }
+}
+
+/// ", at compressed byte N" for a gzip stream.
+fn compressed_note<R: BufRead>(stream: &Stream<R>) -> String {
+    stream.compressed_offset().map_or_else(String::new, |c| format!(" (gzip input near compressed byte {c})"))
+}
+
+/// A read error: a broken gzip stream at its compressed offset, or an operating-system error.
+fn stream_error<R: BufRead>(e: std::io::Error, stream: &Stream<R>, decompressed: usize) -> Error {
+    match stream.compressed_offset() {
+        Some(c) if e.kind() != std::io::ErrorKind::Interrupted && !is_os_error(&e) => Error::invalid(
+            Location::Byte(c),
+            format!("broken gzip stream at compressed byte {c}, after {} decompressed", bytes(decompressed as u64)),
+        )
+        .with_source(e),
+        _ => Error::io(e),
+    }
+}
+
+/// Whether `e` comes from the operating system rather than from the gzip decoder.
+fn is_os_error(e: &std::io::Error) -> bool {
+    e.raw_os_error().is_some()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Write;
+
+    use super::*;
+    use crate::{ErrorKind, Limits};
+
+    fn gzip(data: &[u8]) -> Vec<u8> {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        e.write_all(data).unwrap();
+        e.finish().unwrap()
+    }
+
+    #[test]
+    fn gzip_errors_name_the_compressed_offset() {
+        let gz = gzip(&b"1 2 3\n".repeat(20_000));
+        let mut broken = gz.clone();
+        let mid = broken.len() / 2;
+        for b in &mut broken[mid..mid + 16] {
+            *b ^= 0x5a;
+        }
+        let e = load(&broken[..], Some(Path::new("a.xyz.gz")), &ReadOptions::default()).err().unwrap();
+        assert_eq!(e.kind, ErrorKind::Invalid, "{e}");
+        let Location::Byte(at) = e.location else { panic!("{e}") };
+        assert!(at > 0 && at <= broken.len() as u64, "{e}");
+        assert!(e.message.contains("compressed byte"), "{e}");
+        let e = load(&gz[..gz.len() - 30], None, &ReadOptions::default()).err().unwrap();
+        assert!(matches!(e.location, Location::Byte(b) if b > 0), "a truncated stream: {e}");
+    }
+
+    #[test]
+    fn the_ceiling_caps_what_is_held() {
+        let gz = gzip(&b"1 2 3\n".repeat(100_000));
+        let opts =
+            ReadOptions { limits: Limits { max_memory: Some(100_000), ..Limits::default() }, ..Default::default() };
+        let e = load(&gz[..], Some(Path::new("a.xyz.gz")), &opts).err().unwrap();
+        assert_eq!(e.kind, ErrorKind::LimitExceeded, "{e}");
+        assert!(e.message.contains("--max-memory"), "{e}");
+        let l = load(&gz[..], Some(Path::new("a.xyz.gz")), &ReadOptions::default()).unwrap();
+        assert_eq!((l.format, l.data.len()), (Format::Xyz, 600_000));
+    }
+}
