@@ -98,6 +98,8 @@ pub struct ExportOptions {
     pub max_screen_error: f64,
     /// Key-value pairs recorded in `asset.extras.octowrap` (units, source, ...), in this order.
     pub metadata: Vec<(String, String)>,
+    /// [`write_path`]: refuse to replace an existing file. Default: off.
+    pub no_clobber: bool,
 }
 
 impl Default for ExportOptions {
@@ -110,6 +112,7 @@ impl Default for ExportOptions {
             colors: true,
             max_screen_error: 1.0 / 1080.0,
             metadata: Vec::new(),
+            no_clobber: false,
         }
     }
 }
