@@ -25,7 +25,14 @@ pub fn stdout(f: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> io::Result<()
 
 /// Whether `err` comes from writing to a closed pipe.
 pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|e| e.downcast_ref::<io::Error>().is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe))
+    let epipe = |e: &(dyn std::error::Error + 'static)| {
+        e.downcast_ref::<io::Error>().is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe)
+    };
+    err.chain().any(|e| {
+        // The readers' error keeps its cause in a field (its text is already in the message).
+        let inner = e.downcast_ref::<octowrap_io::Error>().and_then(|e| e.source.as_deref());
+        epipe(e) || inner.is_some_and(|s| epipe(s))
+    })
 }
 
 /// How to treat an existing output file; shared by every subcommand that writes one.
@@ -60,8 +67,10 @@ pub fn check_output(output: &Path, inputs: &[&Path], clobber: ClobberArgs) -> an
         }
     }
     if let Err(e) = octowrap_fsutil::check_output(output, &clobber.write_options()) {
-        let hint = if e.kind() == io::ErrorKind::AlreadyExists { " (drop --no-clobber to replace it)" } else { "" };
-        bail!("{}: cannot write the output: {e}{hint}", output.display());
+        if e.kind() == io::ErrorKind::AlreadyExists {
+            bail!("{}: the output exists, and --no-clobber forbids replacing it", output.display());
+        }
+        bail!("{}: cannot write the output: {e}", output.display());
     }
     Ok(())
 }

@@ -20,7 +20,7 @@ pub const MAX_FOLD_DEGREES: f64 = 30.0;
 const CLEANED_FROM: usize = 5;
 
 /// The triangles of `mesh` ([`Mesh::triangles`]), except that a polygon of five or more corners
-/// first loses every corner equal to the one before it (cyclically): `a a a b b b c c c` is the
+/// first loses every corner equal to the one after it (cyclically): `a a a b b b c c c` is the
 /// polygon `a b c`. Fanned as given, such a polygon makes a zero-area sliver per repeated corner,
 /// all meeting at the first corner, and those slivers (frozen, and measured by the Hausdorff
 /// certification piece by piece) cost time quadratic in their number. A polygon left with fewer
@@ -40,7 +40,7 @@ pub(crate) fn triangulate(mesh: &Mesh) -> Vec<[u32; 3]> {
         }
         kept.clear();
         for (i, &v) in f.iter().enumerate() {
-            if v != f[(i + f.len() - 1) % f.len()] {
+            if v != f[(i + 1) % f.len()] {
                 kept.push(v);
             }
         }

@@ -84,8 +84,8 @@ pub struct Args {
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
     /// Target face count, 1 or more: faces as written (a quad is one face, a triangle another).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
-    pub target_faces: Option<u64>,
+    #[arg(long, value_name = "N", value_parser = parse_faces)]
+    pub target_faces: Option<usize>,
     /// Target face count as a fraction of the input's, in (0, 1].
     #[arg(long, value_name = "R", conflicts_with = "target_faces", value_parser = parse_ratio)]
     pub ratio: Option<f64>,
@@ -117,6 +117,14 @@ pub struct Args {
     pub input_args: InputArgs,
     #[command(flatten)]
     pub clobber: ClobberArgs,
+}
+
+fn parse_faces(s: &str) -> anyhow::Result<usize> {
+    let n: usize = s.trim().parse().with_context(|| format!("'{s}' is not a face count"))?;
+    if n == 0 {
+        bail!("the target must be 1 face or more (a mesh of 0 faces is no mesh)");
+    }
+    Ok(n)
 }
 
 fn parse_ratio(s: &str) -> anyhow::Result<f64> {
@@ -227,7 +235,6 @@ fn run_decimate(args: &Args, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
     let mut opts = DecimateOptions::default();
     opts.target_faces = args
         .target_faces
-        .map(|n| usize::try_from(n).unwrap_or(usize::MAX))
         .or_else(|| args.ratio.map(|r| ((input.faces.len() as f64 * r).round() as usize).max(1)));
     opts.max_error = args.max_error;
     opts.lock_border = args.lock_border;

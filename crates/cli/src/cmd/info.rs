@@ -14,6 +14,10 @@ use super::input::InputArgs;
 /// For an MRQ file, print its levels (vertices, faces, bytes and bits per vertex of each),
 /// quantization, cube and metadata, read from the file's preamble alone.
 ///
+/// Every file is described; one that cannot be read is named on standard error with the reason.
+///
+/// Exit codes: 0 every file described; 2 some file could not be read.
+///
 /// Examples:
 ///   octowrap info bunny.ply
 ///   octowrap info --json scans/*.laz
@@ -112,7 +116,7 @@ struct Failure {
     error: String,
 }
 
-/// Describes one file: its report as JSON, and a closure writing its text form.
+/// Describes one file: its report as JSON, and its text form.
 fn describe(args: &Args, file: &Path) -> anyhow::Result<(serde_json::Value, String)> {
     let mut text = Vec::new();
     let value = if super::mrq::is_mrq(file) {
