@@ -36,7 +36,7 @@ fn out_of_range_values_are_refused_by_the_parser() {
     refused(&["convert", c, s(&mrq), "--bits", "29"], &["--bits"], &mrq);
     refused(&["convert", c, s(&mrq), "--zstd-level", "0"], &["--zstd-level", "1..=22"], &mrq);
     refused(&["convert", c, s(&mrq), "--zstd-level", "23"], &["--zstd-level"], &mrq);
-    refused(&["convert", c, s(&mrq), "--step", "-1"], &["--step"], &mrq);
+    refused(&["convert", c, s(&mrq), "--step", "0"], &["--step"], &mrq);
     refused(&["decimate", c, "-o", s(&ply), "--target-faces", "0"], &["--target-faces"], &ply);
     refused(&["reconstruct", k, "-o", s(&mrq), "--bits", "0"], &["--bits"], &mrq);
     refused(&["reconstruct", k, "-o", s(&ply), "--level", "0"], &["--level"], &ply);

@@ -91,13 +91,15 @@ fn a_symbolic_link_output_stays_a_link_and_modes_are_kept() {
     assert!(std::fs::read(&target).unwrap().starts_with(b"ply\n"), "its target is replaced");
     assert_eq!(std::fs::metadata(&target).unwrap().mode() & 0o777, 0o644, "and keeps its mode");
     // Every writer: a new file gets 0666 less the umask, a replaced one keeps its mode.
+    let (c, m, k) = (cube(), mrq(), kitten());
+    let (c, m, k) = (s(&c), s(&m), s(&k));
     let outputs = [
-        ("a.obj", vec!["convert", s(&cube()), "OUT"]),
-        ("b.mrq", vec!["convert", s(&cube()), "OUT"]),
-        ("c.off", vec!["extract", s(&mrq()), "-o", "OUT"]),
-        ("d.ply", vec!["decimate", s(&cube()), "-o", "OUT", "--target-faces", "4"]),
-        ("e.glb", vec!["export", s(&cube()), "-o", "OUT"]),
-        ("f.ply", vec!["reconstruct", s(&kitten()), "-o", "OUT", "--level", "3"]),
+        ("a.obj", vec!["convert", c, "OUT"]),
+        ("b.mrq", vec!["convert", c, "OUT"]),
+        ("c.off", vec!["extract", m, "-o", "OUT"]),
+        ("d.ply", vec!["decimate", c, "-o", "OUT", "--target-faces", "4"]),
+        ("e.glb", vec!["export", c, "-o", "OUT"]),
+        ("f.ply", vec!["reconstruct", k, "-o", "OUT", "--level", "3"]),
     ];
     for (name, args) in outputs {
         let path = dir.path().join(name);
@@ -148,13 +150,15 @@ fn the_output_may_not_be_the_input() {
 #[test]
 fn no_clobber_refuses_before_any_work_on_every_writing_command() {
     let dir = tempfile::tempdir().unwrap();
+    let (c, m, k) = (cube(), mrq(), kitten());
+    let (c, m, k) = (s(&c), s(&m), s(&k));
     let cases = [
-        ("a.obj", vec!["convert", s(&cube()), "OUT", "--no-clobber"]),
-        ("b.mrq", vec!["convert", s(&cube()), "OUT", "--no-clobber"]),
-        ("c.off", vec!["extract", s(&mrq()), "-o", "OUT", "--no-clobber"]),
-        ("d.ply", vec!["decimate", s(&cube()), "-o", "OUT", "--target-faces", "4", "--no-clobber"]),
-        ("e.glb", vec!["export", s(&cube()), "-o", "OUT", "--no-clobber"]),
-        ("f.ply", vec!["reconstruct", s(&kitten()), "-o", "OUT", "--level", "3", "--no-clobber"]),
+        ("a.obj", vec!["convert", c, "OUT", "--no-clobber"]),
+        ("b.mrq", vec!["convert", c, "OUT", "--no-clobber"]),
+        ("c.off", vec!["extract", m, "-o", "OUT", "--no-clobber"]),
+        ("d.ply", vec!["decimate", c, "-o", "OUT", "--target-faces", "4", "--no-clobber"]),
+        ("e.glb", vec!["export", c, "-o", "OUT", "--no-clobber"]),
+        ("f.ply", vec!["reconstruct", k, "-o", "OUT", "--level", "3", "--no-clobber"]),
     ];
     for (name, args) in cases {
         let path = dir.path().join(name);
