@@ -57,9 +57,10 @@ fn an_output_fifo_is_written_into_and_stays_a_fifo() {
     };
     let out = octowrap(&["convert", s(&cube()), s(&fifo)]);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    // Checked first: a FIFO replaced by a file would leave the reader waiting forever.
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "still a FIFO");
     let bytes = reader.join().unwrap();
     assert!(bytes.starts_with(b"ply\n"), "the reader got the PLY");
-    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "still a FIFO");
     assert_eq!(names(dir.path()), ["out.ply"]);
 }
 

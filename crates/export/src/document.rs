@@ -214,6 +214,12 @@ fn level_streams(
             )));
         }
         let s = geometry::build(mesh, crease_cos, colors);
+        if s.indices.is_empty() {
+            return Err(ExportError::invalid(format!(
+                "level {k}: every triangle of its {} faces names a vertex twice, so none has an area to draw",
+                mesh.faces.len()
+            )));
+        }
         if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
             return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
         }

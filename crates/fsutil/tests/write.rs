@@ -99,8 +99,8 @@ fn a_fifo_is_written_into_and_stays_a_fifo() {
     };
     let payload: Vec<u8> = (0..3_000_000u32).map(|i| (i % 251) as u8).collect();
     put(&fifo, &payload, &WriteOptions::no_clobber(true)).unwrap();
-    assert_eq!(reader.join().unwrap(), payload);
     assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+    assert_eq!(reader.join().unwrap(), payload);
     assert_only(dir.path(), &["pipe.ply"]);
 }
 
