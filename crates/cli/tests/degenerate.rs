@@ -24,15 +24,8 @@ fn a_polygon_with_repeated_corners_decimates_as_its_distinct_corners() {
     let input = dir.path().join("poly.obj");
     std::fs::write(&input, obj).unwrap();
     let output = dir.path().join("out.ply");
-    let out = octowrap(&[
-        "decimate",
-        input.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--max-error",
-        "1%",
-        "--json",
-    ]);
+    let out =
+        octowrap(&["decimate", input.to_str().unwrap(), "-o", output.to_str().unwrap(), "--max-error", "1%", "--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let triangles = v["decimate"]["output_triangles"].as_u64().unwrap();

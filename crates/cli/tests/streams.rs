@@ -43,7 +43,8 @@ fn a_closed_pipe_is_a_quiet_success() {
 #[test]
 fn a_report_never_shares_standard_output_with_the_mesh() {
     let cube = root().join("fixtures/meshes/valid/cube_quads.obj");
-    let out = octowrap(&["decimate", cube.to_str().unwrap(), "-o", "-", "--to", "ply", "--target-faces", "4", "--json"]);
+    let out =
+        octowrap(&["decimate", cube.to_str().unwrap(), "-o", "-", "--to", "ply", "--target-faces", "4", "--json"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(out.stdout.is_empty(), "nothing written");
     let err = text(&out.stderr);

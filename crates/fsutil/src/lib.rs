@@ -239,9 +239,11 @@ fn replace<E>(
     {
         let _live = LIVE.lock().unwrap_or_else(PoisonError::into_inner);
         let persisted = if opts.no_clobber { tmp.persist_noclobber(path) } else { tmp.persist(path) };
-        persisted.map_err(|e| {
-            if e.error.kind() == io::ErrorKind::AlreadyExists { io(exists()) } else { io(e.error) }
-        })?;
+        persisted.map_err(
+            |e| {
+                if e.error.kind() == io::ErrorKind::AlreadyExists { io(exists()) } else { io(e.error) }
+            },
+        )?;
     }
     drop(listed);
     sync_folder(dir).map_err(io)

@@ -170,7 +170,9 @@ struct Report {
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
     if args.json && args.output == Path::new("-") {
-        bail!("--json prints the report on standard output, where `-o -` writes the mesh: write the mesh to a file, or drop --json (the summary goes to standard error)");
+        bail!(
+            "--json prints the report on standard output, where `-o -` writes the mesh: write the mesh to a file, or drop --json (the summary goes to standard error)"
+        );
     }
     let mrq_out = args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output);
     let to = args.output_format.to.or_else(|| Format::from_path(&args.output));
@@ -233,9 +235,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
 
 fn run_decimate(args: &Args, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
     let mut opts = DecimateOptions::default();
-    opts.target_faces = args
-        .target_faces
-        .or_else(|| args.ratio.map(|r| ((input.faces.len() as f64 * r).round() as usize).max(1)));
+    opts.target_faces =
+        args.target_faces.or_else(|| args.ratio.map(|r| ((input.faces.len() as f64 * r).round() as usize).max(1)));
     opts.max_error = args.max_error;
     opts.lock_border = args.lock_border;
     opts.quads = match args.quads.as_str() {

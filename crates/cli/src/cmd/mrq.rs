@@ -170,7 +170,8 @@ impl Report {
         writeln!(w, "  format      MRQ version {}, {} bytes, {} levels", i.version, self.bytes, i.levels.len())?;
         match &i.grid {
             None => writeln!(w, "  positions   exact (binary64)")?,
-            Some(g) => writeln!(w, 
+            Some(g) => writeln!(
+                w,
                 "  positions   grid step {:.6e}{}, origin {:.6} {:.6} {:.6}",
                 g.step,
                 if g.tied_to_cube { format!(" ({} bits across the cube)", g.bits) } else { String::new() },

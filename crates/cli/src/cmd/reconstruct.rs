@@ -206,7 +206,12 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
                  ({} of them because the move would fold a face or meet another vertex), {} without a line; \
                  largest move {:.3e}, RMS {:.3e}",
-                p.placed, p.kept, p.reverted, p.without_line, p.max_move, p.rms_move
+                p.placed,
+                p.kept,
+                p.reverted,
+                p.without_line,
+                p.max_move,
+                p.rms_move
             );
         }
     }
@@ -263,7 +268,9 @@ fn check_options(args: &Args, is_mrq: bool, to: Option<Format>) -> anyhow::Resul
         MaxLevel::Auto => AUTO_CAP.saturating_add(args.region_levels).min(DEEPEST_LEVEL),
     };
     if let Some(k) = args.write_level.filter(|&k| k > finest) {
-        bail!("--write-level {k} is past the finest level built ({finest}): ask for --level {k} or a lower --write-level");
+        bail!(
+            "--write-level {k} is past the finest level built ({finest}): ask for --level {k} or a lower --write-level"
+        );
     }
     if let Some(dir) = &args.all_levels {
         if dir.exists() && !dir.is_dir() {

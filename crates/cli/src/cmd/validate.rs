@@ -126,9 +126,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             if super::mrq::is_mrq(path) {
                 // Decoding checks every level's checksum and that each level derives from its
                 // parent as the spec says; then every level gets the mesh checks.
-                let read = crate::limits::check_input_size(path).and_then(|()| {
-                    Ok(octowrap_format::read_path(path, &crate::limits::decode_options(None))?)
-                });
+                let read = crate::limits::check_input_size(path)
+                    .and_then(|()| Ok(octowrap_format::read_path(path, &crate::limits::decode_options(None))?));
                 let outcome = match read {
                     Ok(file) => Outcome::Hierarchy(validate_hierarchy(&file.hierarchy, &o)),
                     Err(e) => Outcome::Unreadable { error: format!("{name}: {e:#}") },
@@ -233,8 +232,7 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
             continue;
         }
         let shown = PathBuf::from(path.to_string_lossy().into_owned());
-        if MeshFormat::from_path(&shown).is_some_and(MeshFormat::holds_faces) || super::mrq::has_mrq_extension(&shown)
-        {
+        if MeshFormat::from_path(&shown).is_some_and(MeshFormat::holds_faces) || super::mrq::has_mrq_extension(&shown) {
             out.push(path);
         }
     }
