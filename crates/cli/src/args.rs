@@ -17,6 +17,12 @@ pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+    /// Most memory one input may make the command allocate, as bytes or with a suffix (512M, 8G,
+    /// 1T). Inputs larger than this, or declaring more than this, are refused before they are
+    /// read: the readers and the MRQ decoder check it before allocating.
+    #[arg(long, global = true, value_name = "SIZE", default_value = crate::limits::DEFAULT_MAX_MEMORY,
+          value_parser = crate::limits::parse_size)]
+    pub max_memory: u64,
 }
 
 /// The subcommands. Each one's help is the doc comment of its `Args` in `cmd/` (a doc comment

@@ -1,11 +1,18 @@
 //! The `octowrap` command line. One file per subcommand under `cmd/`; arguments in `args.rs`.
 //!
 //! Exit codes: 0 success, 1 a check failed (for example `validate` found a required property
-//! missing), 2 the command could not run (unreadable input, bad arguments).
-#![allow(clippy::print_stderr, clippy::print_stdout)]
+//! missing), 2 the command could not run (unreadable input, bad arguments), 130 and 143 stopped by
+//! SIGINT and SIGTERM (after removing the temporary files of writes in progress).
+//!
+//! Standard output is written through `out::stdout` only, so that a reader closing the pipe
+//! (`octowrap info FILE | head -1`) ends the command quietly with success; messages go to
+//! standard error through `say!`, which never panics.
 
+#[macro_use]
+mod out;
 mod args;
 mod cmd;
+mod limits;
 mod progress;
 
 use std::process::ExitCode;
@@ -20,11 +27,14 @@ use clap::Parser;
 static ALLOC: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
 
 fn main() -> ExitCode {
+    out::remove_temporaries_on_signals();
     let cli = args::Cli::parse();
+    limits::set_max_memory(cli.max_memory);
     match cmd::run(cli) {
         Ok(code) => code,
+        Err(err) if out::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            say!("error: {err:#}");
             ExitCode::from(2)
         }
     }

@@ -146,7 +146,7 @@ pub fn decimate_with_progress(
     if opts.target_faces.is_none() && opts.max_error.is_none() {
         return Err(Error::option("target", "give a face target, an error bound, or both"));
     }
-    let tris = mesh.triangles();
+    let tris = quads::triangulate(mesh);
     let pos = &mesh.vertices.positions;
     let finite = |v: &u32| pos[*v as usize].is_finite();
     if let Some(t) = tris.par_iter().find_first(|t| !t.iter().all(finite)) {

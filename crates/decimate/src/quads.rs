@@ -1,6 +1,8 @@
-//! Re-pairing triangles into quads after decimating a quad-dominant mesh.
+//! The triangulation decimation runs on, and the re-pairing of triangles into quads after
+//! decimating a quad-dominant mesh.
 //!
-//! Decimation runs on the triangulation (each quad split along its shorter diagonal), so a
+//! Decimation runs on the triangulation ([`triangulate`]: each quad split along its shorter
+//! diagonal, each larger polygon fanned from its first corner), so a
 //! quad-dominant input would come out all triangles. This pass merges pairs of triangles that
 //! share an edge back into quads, greedily in order of a score, a maximum matching in the spirit
 //! of Remacle et al., "Blossom-Quad" (2012) but greedy: only convex pairs whose normals differ by
@@ -9,10 +11,43 @@
 //! every other edge and every vertex fan as it was, so manifoldness and orientation are unchanged.
 
 use octowrap_geom::DVec3;
-use octowrap_mesh::FaceList;
+use octowrap_mesh::{FaceList, Mesh, PointCloud};
 
 /// Largest angle between the two triangles' normals for a merge.
 pub const MAX_FOLD_DEGREES: f64 = 30.0;
+
+/// Polygons of this many corners or more lose their repeated corners before they are fanned.
+const CLEANED_FROM: usize = 5;
+
+/// The triangles of `mesh` ([`Mesh::triangles`]), except that a polygon of five or more corners
+/// first loses every corner equal to the one after it (cyclically): `a a a b b b c c c` is the
+/// polygon `a b c`. Fanned as given, such a polygon makes a zero-area sliver per repeated corner,
+/// all meeting at the first corner, and those slivers (frozen, and measured by the Hausdorff
+/// certification piece by piece) cost time quadratic in their number. A polygon left with fewer
+/// than three corners is fanned as given. Triangles and quads are always kept as they are, so
+/// their defects stay exactly as they were.
+pub(crate) fn triangulate(mesh: &Mesh) -> Vec<[u32; 3]> {
+    let repeats = |f: &[u32]| f.len() >= CLEANED_FROM && (0..f.len()).any(|i| f[i] == f[(i + 1) % f.len()]);
+    if !mesh.faces.iter().any(repeats) {
+        return mesh.triangles();
+    }
+    let mut faces = FaceList::with_capacity(mesh.faces.len(), mesh.faces.corner_count());
+    let mut kept = Vec::new();
+    for f in mesh.faces.iter() {
+        if !repeats(f) {
+            faces.push(f);
+            continue;
+        }
+        kept.clear();
+        for (i, &v) in f.iter().enumerate() {
+            if v != f[(i + 1) % f.len()] {
+                kept.push(v);
+            }
+        }
+        faces.push(if kept.len() >= 3 { &kept } else { f });
+    }
+    Mesh { vertices: PointCloud::from_positions(mesh.vertices.positions.clone()), faces }.triangles()
+}
 
 /// Merges triangle pairs into quads (see the module docs). Faces come out in the order of their
 /// first triangle: a merged pair where its lower-numbered triangle was.
@@ -111,6 +146,35 @@ fn score(pos: &[DVec3], q: [u32; 4], n1: DVec3, n2: DVec3, cos_max: f64) -> Opti
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_polygon_with_repeated_corners_is_fanned_without_slivers() {
+        // A 3,000-corner polygon: each of 1,000 corners of a circle three times.
+        let n = 1000u32;
+        let pos: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let a = f64::from(i) / f64::from(n) * std::f64::consts::TAU;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let mut mesh = Mesh::from_positions(pos);
+        let corners: Vec<u32> = (0..n).flat_map(|i| [i; 3]).collect();
+        mesh.faces.push(&corners);
+        assert_eq!(mesh.triangles().len(), 2998, "fanned as given");
+        let tris = triangulate(&mesh);
+        assert_eq!(tris.len(), 998, "the 1,000-gon's fan");
+        assert!(tris.iter().all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]));
+        // Repeats across the wrap-around, and faces left as they are.
+        mesh.faces = FaceList::default();
+        mesh.faces.push(&[0, 1, 2, 3, 0]);
+        mesh.faces.push(&[4, 4, 5]);
+        mesh.faces.push(&[6, 6, 7, 8]);
+        mesh.faces.push(&[9, 9, 9, 9, 9]);
+        let tris = triangulate(&mesh);
+        assert_eq!(tris[..2], [[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(tris[2], [4, 4, 5], "a degenerate triangle stays");
+        assert_eq!(tris.len(), 2 + 1 + 2 + 3, "the quad's two and the all-repeated polygon's three as given");
+    }
 
     #[test]
     fn a_split_square_becomes_one_quad_and_a_fold_does_not() {

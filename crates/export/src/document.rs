@@ -125,7 +125,10 @@ pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) 
 /// its winding, on the same vertices: only the order changes, deterministically.
 fn reorder_for_meshopt(s: &mut Streams) {
     let n = s.positions.len();
-    let indices = meshopt::optimize_vertex_cache(&s.indices, n);
+    let indices = match cache_order(&s.indices, n) {
+        CacheOrder::Forsyth => meshopt::optimize_vertex_cache(&s.indices, n),
+        CacheOrder::Tipsify => meshopt::optimize_vertex_cache_fifo(&s.indices, n, TIPSIFY_CACHE),
+    };
     let remap = meshopt::optimize_vertex_fetch_remap(&indices, n);
     // Every vertex is used (the streams hold used vertices only), so `remap` is a permutation.
     if remap.len() != n || remap.iter().any(|&r| r as usize >= n) {
@@ -137,6 +140,44 @@ fn reorder_for_meshopt(s: &mut Streams) {
         s.colors = Some(permute(c, &remap));
     }
     s.indices = indices.iter().map(|&i| remap[i as usize]).collect();
+}
+
+/// The two vertex cache optimizers of meshoptimizer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CacheOrder {
+    /// `optimizeVertexCache` (Forsyth, "Linear-speed vertex cache optimisation", 2006, with
+    /// meshoptimizer's tuned scores): the better order, but each emitted triangle rescores the
+    /// triangles of every vertex in the cache, so a vertex of valence `k` costs `k²`.
+    Forsyth,
+    /// `optimizeVertexCacheFifo` (Sander, Nehab, Barczak, "Fast triangle reordering for vertex
+    /// locality and reduced overdraw", SIGGRAPH 2007, "Tipsify"): linear time whatever the
+    /// valences, a somewhat worse order.
+    Tipsify,
+}
+
+/// Tipsify's cache size (a typical post-transform FIFO).
+const TIPSIFY_CACHE: u32 = 16;
+
+/// Forsyth's work, estimated as the sum of the squared vertex valences, may be this many times
+/// the triangle count (a closed mesh of valence-6 vertices has 18); past it, Tipsify runs.
+const FORSYTH_WORK_PER_TRIANGLE: u64 = 1024;
+
+/// The optimizer for `indices`: Forsyth unless some vertices' valences make it quadratic (a fan
+/// of a hundred thousand triangles around one vertex).
+fn cache_order(indices: &[u32], vertices: usize) -> CacheOrder {
+    let mut valence = vec![0u64; vertices];
+    for &i in indices {
+        if let Some(v) = valence.get_mut(i as usize) {
+            *v += 1;
+        }
+    }
+    let work: u64 = valence.iter().map(|k| k * k).sum();
+    let triangles = (indices.len() / 3) as u64;
+    if work <= FORSYTH_WORK_PER_TRIANGLE.saturating_mul(triangles.max(1)) {
+        CacheOrder::Forsyth
+    } else {
+        CacheOrder::Tipsify
+    }
 }
 
 /// `v` with element `i` moved to `remap[i]` (`remap` a permutation).
@@ -173,6 +214,12 @@ fn level_streams(
             )));
         }
         let s = geometry::build(mesh, crease_cos, colors);
+        if s.indices.is_empty() {
+            return Err(ExportError::invalid(format!(
+                "level {k}: every triangle of its {} faces names a vertex twice, so none has an area to draw",
+                mesh.faces.len()
+            )));
+        }
         if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
             return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
         }
@@ -550,6 +597,46 @@ fn encode_triangles(bytes: &[u8], stride: usize, vertices: usize) -> Result<Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_huge_fan_is_ordered_in_linear_time() {
+        // A grid: Forsyth.
+        let k = 100u32;
+        let mut grid = Vec::new();
+        for y in 0..k - 1 {
+            for x in 0..k - 1 {
+                let v = y * k + x;
+                grid.extend([v, v + 1, v + k + 1, v, v + k + 1, v + k]);
+            }
+        }
+        assert_eq!(cache_order(&grid, (k * k) as usize), CacheOrder::Forsyth);
+        // A cone of 200,000 triangles around one apex: Forsyth would take minutes.
+        let n = 200_000u32;
+        let fan: Vec<u32> = (0..n).flat_map(|i| [0, 1 + i, 1 + (i + 1) % n]).collect();
+        assert_eq!(cache_order(&fan, n as usize + 1), CacheOrder::Tipsify);
+        // Reordered, the same triangles with the same windings (vertex x = its input number).
+        let mut s = Streams {
+            positions: (0..=n).map(|i| DVec3::new(f64::from(i), 0.0, 0.0)).collect(),
+            normals: vec![geometry::FALLBACK_NORMAL; n as usize + 1],
+            colors: None,
+            indices: fan.clone(),
+        };
+        reorder_for_meshopt(&mut s);
+        let canonical = |idx: &[u32], id: &dyn Fn(u32) -> u32| {
+            let mut t: Vec<[u32; 3]> = idx
+                .chunks(3)
+                .map(|c| {
+                    let t = [id(c[0]), id(c[1]), id(c[2])];
+                    let r = (0..3).min_by_key(|&r| t[r]).unwrap_or(0);
+                    [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
+                })
+                .collect();
+            t.sort_unstable();
+            t
+        };
+        let moved = canonical(&s.indices, &|i| s.positions[i as usize].x as u32);
+        assert_eq!(moved, canonical(&fan, &|i| i));
+    }
 
     #[test]
     fn srgb_endpoints_and_midpoint() {

@@ -29,11 +29,14 @@ pub(crate) struct Streams {
 }
 
 /// Builds the streams of `mesh`, whose indices must already be checked. `crease_cos` is the cosine
-/// of the crease angle (`None`: smooth everywhere, no split). Vertices no triangle uses are dropped;
-/// the others keep their order (without a crease) or are grouped by source vertex in source order.
+/// of the crease angle (`None`: smooth everywhere, no split). Triangles that name a vertex twice
+/// cover no area and are not written (a face `f 1 1 1` draws nothing, and thousands of them at
+/// one vertex would only slow every consumer down). Vertices no triangle uses are dropped; the
+/// others keep their order (without a crease) or are grouped by source vertex in source order.
 pub(crate) fn build(mesh: &Mesh, crease_cos: Option<f64>, with_colors: bool) -> Streams {
     let p = &mesh.vertices.positions;
-    let tris = mesh.triangles();
+    let mut tris = mesh.triangles();
+    tris.retain(|&[a, b, c]| a != b && b != c && a != c);
     let cross: Vec<DVec3> = tris
         .iter()
         .map(|&[a, b, c]| {
@@ -93,7 +96,6 @@ pub(crate) fn build(mesh: &Mesh, crease_cos: Option<f64>, with_colors: bool) -> 
                 made.push((normal, id));
                 id
             };
-            // A triangle naming `v` twice (degenerate) lists it twice here; both passes agree.
             for (k, &c) in tris[t].iter().enumerate() {
                 if c as usize == v {
                     out.indices[t * 3 + k] = id;
@@ -224,6 +226,20 @@ mod tests {
         let apex: std::collections::BTreeSet<u32> = s.indices.chunks(3).map(|t| t[0]).collect();
         assert_eq!(apex.len(), 1, "the apex is not split");
         assert!((s.normals[*apex.first().unwrap() as usize] - Vec3::Z).length() < 1e-4);
+    }
+
+    #[test]
+    fn triangles_naming_a_vertex_twice_are_not_written() {
+        let mut m = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::Y]);
+        for _ in 0..1000 {
+            m.faces.push(&[0, 0, 0]);
+            m.faces.push(&[0, 1, 1]);
+        }
+        m.faces.push(&[0, 1, 2]);
+        let s = build(&m, None, false);
+        assert_eq!(s.indices, vec![0, 1, 2]);
+        assert_eq!(s.positions.len(), 3);
+        assert_eq!(s.normals, vec![Vec3::Z; 3]);
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //! buffer views, encoded with meshoptimizer through the `meshopt` crate).
 //!
 //! What a file holds, per exported level: one mesh with one triangle primitive and one node named
-//! `level K`. Quads are split along their shorter diagonal ([`octowrap_mesh::Mesh::triangles`]);
+//! `level K`. Quads are split along their shorter diagonal ([`octowrap_mesh::Mesh::triangles`]),
+//! and triangles that name a vertex twice (no area) are left out;
 //! normals are smooth, area-weighted, and split where faces meet at more than the crease angle
 //! ([`ExportOptions::crease_angle_deg`]); vertex colours are written when the input has them. The
 //! level's numbers (level, faces, quads, geometric error) go in the mesh's `extras.octowrap`; the
@@ -21,7 +22,8 @@
 //!   bounding box, mapped back by each node's translation and uniform scale, and normals `i8`;
 //!   `KHR_mesh_quantization` is then used and required.
 //! * With [`ExportOptions::meshopt`], triangles are first reordered for the vertex cache and
-//!   vertices by first use (the same triangles and winding), then every buffer view is stored
+//!   vertices by first use (the same triangles and winding; Forsyth's order, or Tipsify's linear
+//!   one where a vertex's valence would make Forsyth's quadratic), then every buffer view is stored
 //!   compressed (attribute codec version 0, triangle index codec); the uncompressed layout is a
 //!   fallback buffer with no data, so `EXT_meshopt_compression` is used and required, as its
 //!   specification says.
@@ -98,6 +100,8 @@ pub struct ExportOptions {
     pub max_screen_error: f64,
     /// Key-value pairs recorded in `asset.extras.octowrap` (units, source, ...), in this order.
     pub metadata: Vec<(String, String)>,
+    /// [`write_path`]: refuse to replace an existing file. Default: off.
+    pub no_clobber: bool,
 }
 
 impl Default for ExportOptions {
@@ -110,6 +114,7 @@ impl Default for ExportOptions {
             colors: true,
             max_screen_error: 1.0 / 1080.0,
             metadata: Vec::new(),
+            no_clobber: false,
         }
     }
 }

@@ -1,7 +1,7 @@
-//! Containers: GLB (glTF 2.0 §4.4, binary glTF) and `.gltf` + `.bin`, written atomically.
+//! Containers: GLB (glTF 2.0 §4.4, binary glTF) and `.gltf` + `.bin`, written with
+//! [`octowrap_fsutil::write_file`].
 
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::Path;
 
 use crate::document::Built;
@@ -81,8 +81,10 @@ pub(crate) fn gltf(built: Built) -> (Vec<u8>, Vec<u8>, Summary) {
 }
 
 /// Exports `h` to `path`: GLB for `.glb`, or for `.gltf` the JSON plus `STEM.bin` beside it. Each
-/// file is written to a temporary file in the same folder and renamed into place when complete,
-/// so a failed export leaves nothing half-written. Errors name the output file.
+/// file is written with [`octowrap_fsutil::write_file`] (to a temporary file in the same folder,
+/// renamed into place when complete, so a failed export leaves nothing half-written; a replaced
+/// file keeps its mode and a symbolic link stays a link). With [`ExportOptions::no_clobber`], an
+/// existing file is refused before anything is written. Errors name the output file.
 ///
 /// ```no_run
 /// use octowrap_export::{ExportOptions, Levels, write_path};
@@ -96,10 +98,12 @@ pub(crate) fn gltf(built: Built) -> (Vec<u8>, Vec<u8>, Summary) {
 /// ```
 pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Summary, ExportError> {
     let name = path.display().to_string();
+    let file_opts = octowrap_fsutil::WriteOptions::no_clobber(opts.no_clobber);
     match Container::from_path(path) {
         Some(Container::Glb) => {
+            check(path, &file_opts)?;
             let (bytes, summary) = to_glb_with_summary(h, opts).map_err(|e| e.in_file(&name))?;
-            atomic_write(path, &bytes)?;
+            write_file(path, &file_opts, &bytes)?;
             Ok(summary)
         }
         Some(Container::Gltf) => {
@@ -111,9 +115,11 @@ pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Su
                 });
             };
             let uri = percent_encode(bin_name);
+            check(path, &file_opts)?;
+            check(&bin_path, &file_opts)?;
             let (json, bin, summary) = to_gltf(h, opts, &uri).map_err(|e| e.in_file(&name))?;
-            atomic_write(&bin_path, &bin)?;
-            atomic_write(path, &json)?;
+            write_file(&bin_path, &file_opts, &bin)?;
+            write_file(path, &file_opts, &json)?;
             Ok(summary)
         }
         None => Err(ExportError::Unsupported {
@@ -136,17 +142,19 @@ fn percent_encode(name: &str) -> String {
     out
 }
 
-fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), ExportError> {
-    let io = |source| ExportError::Io { file: path.display().to_string(), source };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new().prefix(".octowrap-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
-    tmp.write_all(bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+fn io_error(path: &Path, source: std::io::Error) -> ExportError {
+    ExportError::Io { file: path.display().to_string(), source }
+}
+
+/// Refuses, before any work, an output that cannot be written (a folder, a missing folder, an
+/// existing file with `no_clobber`).
+fn check(path: &Path, opts: &octowrap_fsutil::WriteOptions) -> Result<(), ExportError> {
+    octowrap_fsutil::check_output(path, opts).map_err(|e| io_error(path, e))
+}
+
+fn write_file(path: &Path, opts: &octowrap_fsutil::WriteOptions, bytes: &[u8]) -> Result<(), ExportError> {
+    octowrap_fsutil::write_file(path, opts, |w| w.write_all(bytes))
+        .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| io_error(path, e))
 }
 
 #[cfg(test)]

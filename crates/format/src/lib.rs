@@ -221,18 +221,12 @@ pub fn canonical(h: &Hierarchy, opts: &EncodeOptions) -> Result<Hierarchy, Encod
     Ok(out)
 }
 
-/// Writes `h` to `path` atomically: a temporary file in the same folder, renamed into place.
+/// Writes `h` to `path` with [`octowrap_fsutil::write_file`]: atomically through a temporary
+/// file in the same folder, keeping a replaced file's mode and owner and a symbolic link's link.
 pub fn write_path(path: &Path, h: &Hierarchy, opts: &EncodeOptions) -> Result<(), EncodeError> {
     let bytes = encode(h, opts)?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new().prefix(".octowrap-").suffix(".tmp").tempfile_in(dir)?;
-    tmp.write_all(&bytes)?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| EncodeError::Io(e.error))?;
-    Ok(())
+    octowrap_fsutil::write_file(path, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&bytes))
+        .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| EncodeError::Io(e))
 }
 
 /// Reads an MRQ file from `path` (buffered, streaming: levels beyond `opts.max_level` are not read).

@@ -302,6 +302,8 @@ pub struct WriteOptions {
     pub format: Option<Format>,
     /// Text instead of binary where the format has both (PLY, STL).
     pub ascii: bool,
+    /// Refuse to replace an existing file ([`octowrap_fsutil::WriteOptions::no_clobber`]).
+    pub no_clobber: bool,
 }
 
 /// Reads a point cloud or mesh from a file (`-` for standard input).
@@ -429,8 +431,10 @@ pub fn decompress_if_gzip(data: Vec<u8>, limits: &Limits) -> Result<Vec<u8>> {
     source::load(&data[..], None, &opts).map(|l| l.data)
 }
 
-/// Writes `mesh` to `path` (`-` for standard output) in the format its extension names, through a
-/// temporary file beside the target that is renamed into place only when complete.
+/// Writes `mesh` to `path` (`-` for standard output) in the format its extension names; a path
+/// ending in `.gz` is gzip-compressed. Files are written with [`octowrap_fsutil::write_file`]:
+/// atomically through a temporary beside the target, keeping a replaced file's mode and owner and
+/// a symbolic link's link, or straight into a FIFO or device.
 pub fn write_path(path: &Path, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
     let name = display_name(path, "<stdout>");
     let format = opts
@@ -438,28 +442,28 @@ pub fn write_path(path: &Path, mesh: &Mesh, opts: &WriteOptions) -> Result<()> {
         .or_else(|| Format::from_path(path))
         .ok_or_else(|| Error::unsupported(Location::Unknown, "cannot tell the output format from the extension"))
         .map_err(|e| e.in_file(&name))?;
+    let gzip = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz"));
+    let write = |w: &mut dyn Write| -> Result<()> {
+        if gzip {
+            let mut z = flate2::write::GzEncoder::new(w, flate2::Compression::default());
+            write_to(&mut z, mesh, format, opts)?;
+            z.finish().map_err(Error::io)?;
+            Ok(())
+        } else {
+            write_to(w, mesh, format, opts)
+        }
+    };
     if path == Path::new("-") {
         let stdout = std::io::stdout();
         let mut w = std::io::BufWriter::new(stdout.lock());
-        write_to(&mut w, mesh, format, opts).map_err(|e| e.in_file(&name))?;
+        write(&mut w).map_err(|e| e.in_file(&name))?;
         return w.flush().map_err(|e| Error::io(e).in_file(&name));
     }
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".octowrap-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(e).in_file(&name))?;
-    {
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
-        write_to(&mut w, mesh, format, opts).map_err(|e| e.in_file(&name))?;
-        w.flush().map_err(|e| Error::io(e).in_file(&name))?;
-    }
-    tmp.persist(path).map_err(|e| Error::io(e.error).in_file(&name))?;
-    Ok(())
+    let file_opts = octowrap_fsutil::WriteOptions::no_clobber(opts.no_clobber);
+    octowrap_fsutil::write_file(path, &file_opts, write).map_err(|e| match e {
+        octowrap_fsutil::WriteError::Io(e) => Error::io(e).in_file(&name),
+        octowrap_fsutil::WriteError::Write(e) => e.in_file(&name),
+    })
 }
 
 /// Writes `mesh` in `format` to any writer.

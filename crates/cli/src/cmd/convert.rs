@@ -6,15 +6,18 @@ use std::process::ExitCode;
 use anyhow::bail;
 use octowrap_io::{Format, WriteOptions};
 
-use super::input::{InputArgs, OutputFormatArgs};
+use super::input::{InputArgs, OutputFormatArgs, check_sound};
 use super::mrq;
+use crate::out::ClobberArgs;
 
 /// Convert a point cloud or mesh between formats.
 ///
 /// The input format is detected from the content (signature) and the extension; the output
 /// format comes from OUTPUT's extension or `--to`. Use `-` for standard input or output.
-/// The output is written to a temporary file and renamed into place, so a failed run leaves
-/// nothing half-written.
+/// An output ending in .gz is gzip-compressed. The output is written to a temporary file and
+/// renamed into place, so a failed run leaves nothing half-written (a FIFO or device is written
+/// into directly; a symbolic link keeps pointing at the file it names). The output may not be the
+/// input.
 ///
 /// Examples:
 ///   octowrap convert scan.laz scan.ply
@@ -49,21 +52,31 @@ pub struct Args {
     #[command(flatten)]
     pub mrq: mrq::MrqWriteArgs,
     #[command(flatten)]
+    pub clobber: ClobberArgs,
+    #[command(flatten)]
     pub input_args: InputArgs,
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
     let mrq_in = mrq::is_mrq(&args.input);
+    if args.level.is_some() && !mrq_in {
+        bail!("--level picks a level of an MRQ input; '{}' is a single mesh", args.input.display());
+    }
     if args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output) {
+        if args.output_format.ascii {
+            bail!("--ascii applies to PLY and STL output; MRQ is binary");
+        }
         let h = if mrq_in {
             mrq::read(&args.input, None)?.hierarchy
         } else {
-            octowrap_mesh::Hierarchy::single(args.input_args.read(&args.input)?)
+            octowrap_mesh::Hierarchy::single(args.input_args.read_sound(&args.input)?)
         };
-        mrq::write(&args.output, &h, &args.mrq.options(true, &args.input))?;
+        mrq::write(&args.output, &h, &args.mrq.options(true, &args.input), args.clobber)?;
         return Ok(ExitCode::SUCCESS);
     }
+    args.mrq.refuse_unless_mrq(&args.output)?;
     let to = args.output_format.to.or_else(|| Format::from_path(&args.output));
     let Some(to) = to else {
         bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
@@ -72,13 +85,14 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         bail!("octowrap reads {to} files but does not write them; writable: ply, obj, off, stl, xyz");
     }
     let mut mesh =
-        if mrq_in { mrq::read_level(&args.input, args.level)? } else { args.input_args.read(&args.input)? };
+        if mrq_in { mrq::read_level(&args.input, args.level)? } else { args.input_args.read_sound(&args.input)? };
+    check_sound(&args.input, &mesh)?;
     if args.weld {
         let merged = mesh.weld_exact();
-        eprintln!("welded {merged} vertices with equal positions; {} remain", mesh.vertex_count());
+        say!("welded {merged} vertices with equal positions; {} remain", mesh.vertex_count());
     }
     if !mesh.faces.is_empty() && !to.holds_faces() {
-        eprintln!(
+        say!(
             "note: {to} holds points only: writing the {} vertices, dropping the {} faces",
             mesh.vertex_count(),
             mesh.faces.len()
@@ -87,6 +101,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mut opts = WriteOptions::default();
     opts.format = Some(to);
     opts.ascii = args.output_format.ascii;
+    opts.no_clobber = args.clobber.no_clobber;
     octowrap_io::write_path(&args.output, &mesh, &opts)?;
     Ok(ExitCode::SUCCESS)
 }

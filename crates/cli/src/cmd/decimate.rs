@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
+use crate::out::ClobberArgs;
 use crate::progress;
 
 /// Decimate a mesh to a face budget or an error budget, or cut an MRQ hierarchy adaptively.
@@ -59,7 +60,8 @@ use crate::progress;
 /// pixel_error * 2 d tan(fov_y / 2) / viewport_height_px.
 ///
 /// The output is written to a temporary file and renamed into place. A summary goes to standard
-/// error; --json prints the report on standard output.
+/// error; --json prints the report on standard output (so not with `-o -`, which puts the mesh
+/// there).
 ///
 /// Exit codes: 0 done; 2 the command could not run (unreadable input, bad arguments).
 ///
@@ -73,14 +75,16 @@ use crate::progress;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 #[allow(clippy::doc_markdown)] // the examples are shell lines shown by --help, not Rust names
+#[command(group(clap::ArgGroup::new("target").required(true).multiple(true)
+    .args(["target_faces", "ratio", "max_error", "view"])))]
 pub struct Args {
     /// Input mesh or MRQ file (`-` for standard input).
     pub input: PathBuf,
     /// Output file: ply, obj, off, stl, or mrq (a one-level file); `-` for standard output with --to.
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
-    /// Target face count: faces as written (a quad is one face, a triangle another).
-    #[arg(long, value_name = "N", required_unless_present_any = ["ratio", "max_error", "view"])]
+    /// Target face count, 1 or more: faces as written (a quad is one face, a triangle another).
+    #[arg(long, value_name = "N", value_parser = parse_faces)]
     pub target_faces: Option<usize>,
     /// Target face count as a fraction of the input's, in (0, 1].
     #[arg(long, value_name = "R", conflicts_with = "target_faces", value_parser = parse_ratio)]
@@ -111,6 +115,16 @@ pub struct Args {
     pub output_format: OutputFormatArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
+    #[command(flatten)]
+    pub clobber: ClobberArgs,
+}
+
+fn parse_faces(s: &str) -> anyhow::Result<usize> {
+    let n: usize = s.trim().parse().with_context(|| format!("'{s}' is not a face count"))?;
+    if n == 0 {
+        bail!("the target must be 1 face or more (a mesh of 0 faces is no mesh)");
+    }
+    Ok(n)
 }
 
 fn parse_ratio(s: &str) -> anyhow::Result<f64> {
@@ -153,8 +167,13 @@ struct Report {
 }
 
 /// Runs the command.
-#[allow(clippy::print_stdout)]
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
+    if args.json && args.output == Path::new("-") {
+        bail!(
+            "--json prints the report on standard output, where `-o -` writes the mesh: write the mesh to a file, or drop --json (the summary goes to standard error)"
+        );
+    }
     let mrq_out = args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output);
     let to = args.output_format.to.or_else(|| Format::from_path(&args.output));
     if !mrq_out {
@@ -174,12 +193,19 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             args.input.display()
         );
     }
+    let camera = match &args.view {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            Some(Camera::from_json(&text).with_context(|| format!("reading {}", path.display()))?)
+        }
+        None => None,
+    };
     let (input, hierarchy) = if mrq_in {
         let h = mrq::read(&args.input, None)?.hierarchy;
         let Some(finest) = h.levels.last() else { bail!("{} holds no levels", args.input.display()) };
         (finest.mesh.clone(), Some(h))
     } else {
-        (args.input_args.read(&args.input)?, None)
+        (args.input_args.read_sound(&args.input)?, None)
     };
     if input.faces.is_empty() {
         bail!("{} has no faces: decimation needs a mesh, not a point cloud", args.input.display());
@@ -187,7 +213,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let start = std::time::Instant::now();
     let (mesh, mut report) = if cut {
         let h = hierarchy.as_ref().context("hierarchy")?;
-        run_cut(args, h, &input)?
+        run_cut(args, camera, h, &input)?
     } else {
         run_decimate(args, &input)?
     };
@@ -201,7 +227,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     write(args, mrq_out, to, &mesh)?;
     print_summary(&report, input.vertices.bounds().diagonal());
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        let json = serde_json::to_string_pretty(&report)?;
+        crate::out::stdout(|w| writeln!(w, "{json}"))?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -238,10 +265,9 @@ fn run_decimate(args: &Args, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
     Ok((out.mesh, report))
 }
 
-fn run_cut(args: &Args, h: &Hierarchy, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
-    let criterion = if let Some(path) = &args.view {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        CutCriterion::View(Camera::from_json(&text).with_context(|| format!("reading {}", path.display()))?)
+fn run_cut(args: &Args, camera: Option<Camera>, h: &Hierarchy, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
+    let criterion = if let Some(camera) = camera {
+        CutCriterion::View(camera)
     } else {
         let e = match args.max_error {
             Some(ErrorBound::Absolute(e)) => e,
@@ -273,18 +299,18 @@ fn write(args: &Args, mrq_out: bool, to: Option<Format>, mesh: &Mesh) -> anyhow:
     if mrq_out {
         let h = Hierarchy::single(mesh.clone());
         let opts = octowrap_format::EncodeOptions::with_quantization(octowrap_format::Quantization::Exact);
-        return mrq::write(&args.output, &h, &opts);
+        return mrq::write(&args.output, &h, &opts, args.clobber);
     }
     let mut opts = WriteOptions::default();
     opts.format = to;
     opts.ascii = args.output_format.ascii;
+    opts.no_clobber = args.clobber.no_clobber;
     octowrap_io::write_path(&args.output, mesh, &opts).with_context(|| format!("writing {}", args.output.display()))
 }
 
-#[allow(clippy::print_stderr)]
 fn print_summary(r: &Report, diagonal: f64) {
     let pct = |x: f64| if diagonal > 0.0 { 100.0 * x / diagonal } else { 0.0 };
-    eprintln!(
+    say!(
         "{}: {} -> {} faces, {} vertices, {:.3} s",
         Path::new(&r.output).display(),
         r.input_faces,
@@ -294,13 +320,13 @@ fn print_summary(r: &Report, diagonal: f64) {
     );
     if let Some(d) = &r.decimate {
         if let (Some(e), Some(found)) = (d.error, d.error_found) {
-            eprintln!(
+            say!(
                 "  Hausdorff distance to the input: at most {e:.6e} ({:.4}% of the diagonal), certified; {found:.6e} ({:.4}%) found at a sample",
                 pct(e),
                 pct(found)
             );
         }
-        eprintln!(
+        say!(
             "  quadric error {:.6e}; stopped: {}; {} collapses in {} passes, {} run(s){}",
             d.quadric_error,
             serde_json::to_value(d.stop).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default(),
@@ -316,7 +342,7 @@ fn print_summary(r: &Report, diagonal: f64) {
     }
     if let Some(c) = &r.cut {
         let levels: Vec<String> = c.faces_per_level.iter().map(ToString::to_string).collect();
-        eprintln!(
+        say!(
             "  faces per level (coarsest first): {}; largest region distance to the finest level {:.6e} ({:.4}% of the diagonal), certified",
             levels.join(" "),
             c.max_error,
@@ -324,7 +350,7 @@ fn print_summary(r: &Report, diagonal: f64) {
         );
     }
     if let Some(m) = &r.measured {
-        eprintln!(
+        say!(
             "  sampled: Hausdorff {:.6e} ({:.4}%), RMS {:.6e} ({:.4}%)",
             m.hausdorff,
             pct(m.hausdorff),

@@ -10,6 +10,7 @@ use octowrap_mesh::Hierarchy;
 
 use super::input::InputArgs;
 use super::mrq;
+use crate::out::ClobberArgs;
 use crate::progress;
 
 /// Export a hierarchy or mesh as glTF 2.0: one .glb file, or a .gltf file with a .bin beside it.
@@ -59,16 +60,35 @@ pub struct Args {
     pub meshopt: bool,
     /// Split normals where faces meet at more than this angle, in degrees (0 to 180; default:
     /// smooth everywhere).
-    #[arg(long, value_name = "DEGREES")]
+    #[arg(long, value_name = "DEGREES", value_parser = parse_crease)]
     pub crease_angle: Option<f64>,
     /// Leave vertex colours out.
     #[arg(long)]
     pub no_colors: bool,
-    /// The projected error, in pixels of a 1080-pixel-high view, the level-switching hints allow.
-    #[arg(long, value_name = "PIXELS", default_value_t = 1.0)]
+    /// The projected error, in pixels of a 1080-pixel-high view, the level-switching hints allow
+    /// (a positive number).
+    #[arg(long, value_name = "PIXELS", default_value_t = 1.0, value_parser = parse_pixels)]
     pub screen_error: f64,
     #[command(flatten)]
     pub input_args: InputArgs,
+    #[command(flatten)]
+    pub clobber: ClobberArgs,
+}
+
+fn parse_crease(s: &str) -> anyhow::Result<f64> {
+    let v: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number of degrees"))?;
+    if !(0.0..=180.0).contains(&v) {
+        bail!("the crease angle must be 0 to 180 degrees, not {s}");
+    }
+    Ok(v)
+}
+
+fn parse_pixels(s: &str) -> anyhow::Result<f64> {
+    let v: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number of pixels"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("the screen error must be a positive number of pixels, not {s}");
+    }
+    Ok(v)
 }
 
 /// `--levels` values.
@@ -86,6 +106,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if octowrap_export::Container::from_path(&args.output).is_none() {
         bail!("cannot tell the glTF form of '{}': the output must end in .glb or .gltf", args.output.display());
     }
+    crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
+    if octowrap_export::Container::from_path(&args.output) == Some(octowrap_export::Container::Gltf) {
+        crate::out::check_output(&args.output.with_extension("bin"), &[&args.input], args.clobber)?;
+    }
     let mut opts = ExportOptions::default();
     opts.levels = match (args.levels, args.level) {
         (Some(WhichLevels::All), _) => Levels::All,
@@ -97,6 +121,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.crease_angle_deg = args.crease_angle;
     opts.colors = !args.no_colors;
     opts.max_screen_error = args.screen_error / 1080.0;
+    opts.no_clobber = args.clobber.no_clobber;
     let input_name = args.input.display().to_string();
     let source = args.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let h = if mrq::is_mrq(&args.input) {
@@ -118,12 +143,12 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         file.hierarchy
     } else {
         if args.level.is_some_and(|k| k > 0) || args.levels == Some(WhichLevels::All) {
-            eprintln!("note: {input_name} is a single mesh: exporting it as one level");
+            say!("note: {input_name} is a single mesh: exporting it as one level");
         }
         if matches!(opts.levels, Levels::One(_)) {
             opts.levels = Levels::Finest;
         }
-        let mesh = args.input_args.read(&args.input)?;
+        let mesh = args.input_args.read_sound(&args.input)?;
         Hierarchy::single(mesh)
     };
     if !opts.metadata.iter().any(|(k, _)| k == "source") && !source.is_empty() {
@@ -135,7 +160,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let summary = written.with_context(|| format!("exporting {input_name}"))?;
     let triangles: usize = summary.levels.iter().map(|l| l.triangles).sum();
     let names: Vec<String> = summary.levels.iter().map(|l| l.level.to_string()).collect();
-    eprintln!(
+    say!(
         "wrote {}: level{} {}, {triangles} triangles, {} bytes{}",
         args.output.display(),
         if names.len() == 1 { "" } else { "s" },

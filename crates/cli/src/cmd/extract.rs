@@ -8,6 +8,7 @@ use octowrap_io::{Format, WriteOptions};
 
 use super::input::OutputFormatArgs;
 use super::mrq;
+use crate::out::ClobberArgs;
 
 /// Write one level of an MRQ hierarchy as a mesh (PLY, OBJ, OFF, STL or XYZ).
 ///
@@ -32,10 +33,13 @@ pub struct Args {
     pub output: PathBuf,
     #[command(flatten)]
     pub output_format: OutputFormatArgs,
+    #[command(flatten)]
+    pub clobber: ClobberArgs,
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
     let Some(to) = args.output_format.to.or_else(|| Format::from_path(&args.output)) else {
         bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
     };
@@ -46,6 +50,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mut opts = WriteOptions::default();
     opts.format = Some(to);
     opts.ascii = args.output_format.ascii;
+    opts.no_clobber = args.clobber.no_clobber;
     octowrap_io::write_path(&args.output, &mesh, &opts)?;
     Ok(ExitCode::SUCCESS)
 }

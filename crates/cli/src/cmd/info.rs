@@ -1,5 +1,6 @@
 //! `octowrap info`: what a file holds.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -13,6 +14,10 @@ use super::input::InputArgs;
 /// For an MRQ file, print its levels (vertices, faces, bytes and bits per vertex of each),
 /// quantization, cube and metadata, read from the file's preamble alone.
 ///
+/// Every file is described; one that cannot be read is named on standard error with the reason.
+///
+/// Exit codes: 0 every file described; 2 some file could not be read.
+///
 /// Examples:
 ///   octowrap info bunny.ply
 ///   octowrap info --json scans/*.laz
@@ -23,7 +28,8 @@ pub struct Args {
     /// Files to describe (`-` for standard input).
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Print one JSON object per file (a JSON array for several files) instead of text.
+    /// Print one JSON object per file (a JSON array for several files) instead of text. A file
+    /// that cannot be read is listed as `{"file": ..., "error": ...}`.
     #[arg(long)]
     pub json: bool,
     #[command(flatten)]
@@ -78,48 +84,79 @@ impl Report {
         }
     }
 
-    fn print_text(&self) {
-        println!("{}", self.file);
-        println!("  format      {}", self.format);
-        println!("  points      {}", self.points);
-        println!("  faces       {}", self.faces);
+    fn write_text(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        writeln!(w, "{}", self.file)?;
+        writeln!(w, "  format      {}", self.format)?;
+        writeln!(w, "  points      {}", self.points)?;
+        writeln!(w, "  faces       {}", self.faces)?;
         if !self.attributes.is_empty() {
-            println!("  attributes  {}", self.attributes.join(", "));
+            writeln!(w, "  attributes  {}", self.attributes.join(", "))?;
         }
         if let (Some(lo), Some(hi)) = (self.bbox_min, self.bbox_max) {
             let ([x0, y0, z0], [x1, y1, z1]) = (lo, hi);
-            println!("  bbox min    {x0:.6} {y0:.6} {z0:.6}");
-            println!("  bbox max    {x1:.6} {y1:.6} {z1:.6}");
-            println!("  diagonal    {:.6}", self.diagonal);
+            writeln!(w, "  bbox min    {x0:.6} {y0:.6} {z0:.6}")?;
+            writeln!(w, "  bbox max    {x1:.6} {y1:.6} {z1:.6}")?;
+            writeln!(w, "  diagonal    {:.6}", self.diagonal)?;
         }
         if self.non_finite_points > 0 {
-            println!("  non-finite  {} points", self.non_finite_points);
+            writeln!(w, "  non-finite  {} points", self.non_finite_points)?;
         }
         if !self.face_sizes.is_empty() {
             let h: Vec<String> = self.face_sizes.iter().map(|[s, c]| format!("{s}-gons: {c}")).collect();
-            println!("  face sizes  {}", h.join(", "));
+            writeln!(w, "  face sizes  {}", h.join(", "))?;
         }
+        Ok(())
     }
 }
 
-/// Runs the command.
-pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
-    let mut reports = Vec::new();
-    for file in &args.files {
-        if super::mrq::is_mrq(file) {
-            let r = super::mrq::Report::new(file)?;
-            if !args.json {
-                r.print_text();
-            }
-            reports.push(serde_json::to_value(r)?);
-            continue;
-        }
+/// What `info` says about a file it could not read (JSON form).
+#[derive(Debug, Serialize)]
+struct Failure {
+    file: String,
+    error: String,
+}
+
+/// Describes one file: its report as JSON, and its text form.
+fn describe(args: &Args, file: &Path) -> anyhow::Result<(serde_json::Value, String)> {
+    let mut text = Vec::new();
+    let value = if super::mrq::is_mrq(file) {
+        let r = super::mrq::Report::new(file)?;
+        r.write_text(&mut text)?;
+        serde_json::to_value(r)?
+    } else {
         let (format, mesh) = args.input_args.read_detected(file)?;
         let r = Report::new(file, format.name(), &mesh);
-        if !args.json {
-            r.print_text();
+        r.write_text(&mut text)?;
+        serde_json::to_value(r)?
+    };
+    Ok((value, String::from_utf8_lossy(&text).into_owned()))
+}
+
+/// Runs the command: every file is described, those that cannot be read are named on standard
+/// error (and, with `--json`, listed with their error); the exit code is 2 when any failed.
+pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    let mut reports = Vec::new();
+    let mut failed = 0usize;
+    for file in &args.files {
+        match describe(args, file) {
+            Ok((value, text)) => {
+                if !args.json {
+                    crate::out::stdout(|w| w.write_all(text.as_bytes()))?;
+                }
+                reports.push(value);
+            }
+            Err(e) => {
+                failed += 1;
+                let error = format!("{e:#}");
+                let named = if error.contains(&*file.to_string_lossy()) {
+                    error.clone()
+                } else {
+                    format!("{}: {error}", file.display())
+                };
+                say!("error: {named}");
+                reports.push(serde_json::to_value(Failure { file: file.display().to_string(), error: named })?);
+            }
         }
-        reports.push(serde_json::to_value(r)?);
     }
     if args.json {
         let out = if reports.len() == 1 {
@@ -127,7 +164,13 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         } else {
             serde_json::to_string_pretty(&reports)?
         };
-        println!("{out}");
+        crate::out::stdout(|w| writeln!(w, "{out}"))?;
+    }
+    if failed > 0 {
+        if args.files.len() > 1 {
+            say!("{failed} of {} files could not be read", args.files.len());
+        }
+        return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
 }

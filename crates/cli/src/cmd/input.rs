@@ -30,13 +30,13 @@ pub struct InputArgs {
 }
 
 impl InputArgs {
-    /// The library options these arguments stand for.
+    /// The library options these arguments stand for, with `--max-memory` applied.
     pub fn read_options(&self) -> ReadOptions {
         let mut o = ReadOptions::default();
         o.format = self.from;
         o.camera = self.camera;
         o.keep_invalid = self.keep_invalid;
-        o
+        crate::limits::read_options(o)
     }
 
     /// Reads `path` (`-` for standard input), with a spinner on a terminal.
@@ -46,11 +46,29 @@ impl InputArgs {
 
     /// Like [`InputArgs::read`], also telling which format was read.
     pub fn read_detected(&self, path: &Path) -> anyhow::Result<(Format, Mesh)> {
+        crate::limits::check_input_size(path)?;
         let pb = progress::spinner(format!("reading {}", path.display()));
         let read = octowrap_io::read_path_detected(path, &self.read_options());
         pb.finish_and_clear();
         Ok(read?)
     }
+
+    /// Reads `path` as a mesh that can be processed and written: every face index in range and
+    /// every face of 3 or more corners. (The readers keep broken faces, so that `validate` can
+    /// describe them; every other command refuses them here, naming the input.)
+    pub fn read_sound(&self, path: &Path) -> anyhow::Result<Mesh> {
+        let mesh = self.read(path)?;
+        check_sound(path, &mesh)?;
+        Ok(mesh)
+    }
+}
+
+/// Refuses a mesh read from `path` whose faces are broken, naming the input file.
+pub fn check_sound(path: &Path, mesh: &Mesh) -> anyhow::Result<()> {
+    if let Err(e) = mesh.check_indices() {
+        bail!("{}: broken input: {e} (`octowrap validate` describes every defect)", path.display());
+    }
+    Ok(())
 }
 
 /// How to write a mesh output: shared by every subcommand that writes one.

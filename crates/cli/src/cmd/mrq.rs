@@ -1,13 +1,15 @@
 //! MRQ helpers shared by `convert`, `info` and `extract`: recognising `.mrq` files, reading a
 //! level, writing a hierarchy with the quantization options, and the `info` report.
 
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use octowrap_format::{DecodeOptions, EncodeOptions, FileInfo, Quantization};
+use octowrap_format::{EncodeOptions, FileInfo, Quantization};
 use octowrap_mesh::{Hierarchy, Mesh};
 use serde::Serialize;
+
+use crate::out::ClobberArgs;
 
 /// Whether `path` has the `.mrq` extension.
 pub fn has_mrq_extension(path: &Path) -> bool {
@@ -30,21 +32,30 @@ pub fn is_mrq(path: &Path) -> bool {
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct MrqWriteArgs {
     /// MRQ output: quantize positions on a grid of 2^BITS steps across the octree cube (or the
-    /// bounding box). Every decoded vertex then lies within half a step of the input.
-    #[arg(long, value_name = "BITS", conflicts_with_all = ["step", "exact"])]
+    /// bounding box), 1 to 28. Every decoded vertex then lies within half a step of the input.
+    #[arg(long, value_name = "BITS", conflicts_with_all = ["step", "exact"],
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(octowrap_format::MAX_GRID_BITS)))]
     pub bits: Option<u32>,
-    /// MRQ output: quantize positions on a grid with this step, in the input's units.
-    #[arg(long, value_name = "STEP", conflicts_with = "exact")]
+    /// MRQ output: quantize positions on a grid with this step, in the input's units (> 0).
+    #[arg(long, value_name = "STEP", conflicts_with = "exact", value_parser = parse_step)]
     pub step: Option<f64>,
     /// MRQ output: store positions exactly (lossless; the default when converting a mesh).
     #[arg(long)]
     pub exact: bool,
-    /// MRQ output: zstd level, 1 (fast) to 22 (small).
-    #[arg(long, value_name = "N", default_value_t = 19)]
-    pub zstd_level: i32,
+    /// MRQ output: zstd level, 1 (fast) to 22 (small) [default: 19].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(i32).range(1..=22))]
+    pub zstd_level: Option<i32>,
     /// MRQ output: the length unit to record (for example m or mm).
     #[arg(long, value_name = "UNIT")]
     pub units: Option<String>,
+}
+
+fn parse_step(s: &str) -> anyhow::Result<f64> {
+    let v: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("the grid step must be a positive length, not {s}");
+    }
+    Ok(v)
 }
 
 impl MrqWriteArgs {
@@ -57,35 +68,58 @@ impl MrqWriteArgs {
             _ => Quantization::Bits(16),
         };
         let mut o = EncodeOptions::with_quantization(quantization);
-        o.zstd_level = self.zstd_level;
+        if let Some(level) = self.zstd_level {
+            o.zstd_level = level;
+        }
         o.metadata.units = self.units.clone().unwrap_or_default();
         o.metadata.source = source.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         o.metadata.generator = format!("octowrap {}", env!("CARGO_PKG_VERSION"));
         o
     }
+
+    /// Refuses these options when the output is not MRQ (they would be ignored), naming the first
+    /// one given.
+    pub fn refuse_unless_mrq(&self, output: &Path) -> anyhow::Result<()> {
+        let given = [
+            ("--bits", self.bits.is_some()),
+            ("--step", self.step.is_some()),
+            ("--exact", self.exact),
+            ("--zstd-level", self.zstd_level.is_some()),
+            ("--units", self.units.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|g| g.1) {
+            bail!(
+                "{flag} sets how an MRQ file stores positions, but the output '{}' is not MRQ: \
+                 drop {flag}, or write an .mrq file",
+                output.display()
+            );
+        }
+        Ok(())
+    }
 }
 
-/// Writes `h` to `path` as MRQ.
-pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions) -> anyhow::Result<()> {
+/// Writes `h` to `path` (`-` for standard output) as MRQ.
+pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions, clobber: ClobberArgs) -> anyhow::Result<()> {
     let dropped: Vec<&str> = h.levels.iter().flat_map(|l| l.mesh.vertices.attribute_names()).collect();
     if !dropped.is_empty() {
         let mut names = dropped;
         names.sort_unstable();
         names.dedup();
-        eprintln!("note: MRQ stores positions and connectivity only: dropping {}", names.join(", "));
+        say!("note: MRQ stores positions and connectivity only: dropping {}", names.join(", "));
     }
+    let bytes = octowrap_format::encode(h, opts).context("encoding the mesh as MRQ")?;
     if path == Path::new("-") {
-        let mut out = std::io::stdout().lock();
-        octowrap_format::encode_to(&mut out, h, opts).with_context(|| "writing MRQ to standard output")?;
-        return Ok(());
+        return Ok(crate::out::stdout(|w| w.write_all(&bytes))?);
     }
-    octowrap_format::write_path(path, h, opts).with_context(|| format!("writing {}", path.display()))
+    octowrap_fsutil::write_file(path, &clobber.write_options(), |w| w.write_all(&bytes))
+        .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| e)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Reads levels `0..=level` (all when `None`) of an MRQ file (`-` for standard input).
 pub fn read(path: &Path, level: Option<u32>) -> anyhow::Result<octowrap_format::MrqFile> {
-    let mut opts = DecodeOptions::default();
-    opts.max_level = level;
+    crate::limits::check_input_size(path)?;
+    let opts = crate::limits::decode_options(level);
     let file = if path == Path::new("-") {
         octowrap_format::decode(std::io::stdin().lock(), &opts)
     } else {
@@ -100,7 +134,7 @@ pub fn read_level(path: &Path, level: Option<u32>) -> anyhow::Result<Mesh> {
     let n = file.info.levels.len();
     let Some(l) = file.hierarchy.levels.into_iter().last() else { bail!("{} holds no levels", path.display()) };
     if let Some(k) = level {
-        eprintln!("note: level {k} of {n} ({} faces, {} vertices)", l.mesh.faces.len(), l.mesh.vertex_count());
+        say!("note: level {k} of {n} ({} faces, {} vertices)", l.mesh.faces.len(), l.mesh.vertex_count());
     }
     Ok(l.mesh)
 }
@@ -124,44 +158,45 @@ impl Report {
     pub fn new(path: &Path) -> anyhow::Result<Self> {
         let f = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
         let bytes = f.metadata().map_or(0, |m| m.len());
-        let info = octowrap_format::read_info(std::io::BufReader::new(f), &octowrap_format::Limits::default())
+        let info = octowrap_format::read_info(std::io::BufReader::new(f), &crate::limits::format_limits())
             .with_context(|| format!("reading {}", path.display()))?;
         Ok(Self { file: path.display().to_string(), format: "mrq", bytes, info })
     }
 
-    /// Prints the text form.
-    #[allow(clippy::print_stdout)]
-    pub fn print_text(&self) {
+    /// Writes the text form.
+    pub fn write_text(&self, w: &mut dyn Write) -> std::io::Result<()> {
         let i = &self.info;
-        println!("{}", self.file);
-        println!("  format      MRQ version {}, {} bytes, {} levels", i.version, self.bytes, i.levels.len());
+        writeln!(w, "{}", self.file)?;
+        writeln!(w, "  format      MRQ version {}, {} bytes, {} levels", i.version, self.bytes, i.levels.len())?;
         match &i.grid {
-            None => println!("  positions   exact (binary64)"),
-            Some(g) => println!(
+            None => writeln!(w, "  positions   exact (binary64)")?,
+            Some(g) => writeln!(
+                w,
                 "  positions   grid step {:.6e}{}, origin {:.6} {:.6} {:.6}",
                 g.step,
                 if g.tied_to_cube { format!(" ({} bits across the cube)", g.bits) } else { String::new() },
                 g.origin[0],
                 g.origin[1],
                 g.origin[2]
-            ),
+            )?,
         }
         if let Some(([x0, y0, z0], [x1, y1, z1])) = i.cube {
-            println!("  cube        {x0:.6} {y0:.6} {z0:.6} .. {x1:.6} {y1:.6} {z1:.6}");
+            writeln!(w, "  cube        {x0:.6} {y0:.6} {z0:.6} .. {x1:.6} {y1:.6} {z1:.6}")?;
         }
         let m = &i.metadata;
         for (k, v) in [("units", &m.units), ("source", &m.source), ("generator", &m.generator)] {
             if !v.is_empty() {
-                println!("  {k:<11} {v}");
+                writeln!(w, "  {k:<11} {v}")?;
             }
         }
         for (k, v) in &m.entries {
-            println!("  {k:<11} {v}");
+            writeln!(w, "  {k:<11} {v}")?;
         }
-        println!("  level     vertices        faces        bytes   bits/vertex");
+        writeln!(w, "  level     vertices        faces        bytes   bits/vertex")?;
         for (k, l) in i.levels.iter().enumerate() {
             let bpv = if l.vertex_count > 0 { l.stored_size as f64 * 8.0 / f64::from(l.vertex_count) } else { 0.0 };
-            println!("  {k:>5} {:>12} {:>12} {:>12} {:>13.2}", l.vertex_count, l.face_count, l.stored_size, bpv);
+            writeln!(w, "  {k:>5} {:>12} {:>12} {:>12} {:>13.2}", l.vertex_count, l.face_count, l.stored_size, bpv)?;
         }
+        Ok(())
     }
 }

@@ -6,10 +6,11 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use octowrap_io::{Format, WriteOptions};
-use octowrap_recon::{LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
+use octowrap_recon::{AUTO_CAP, DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
 
 use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
+use crate::out::ClobberArgs;
 use crate::progress;
 
 /// Reconstruct a surface from a point cloud: a two-manifold quad mesh at every octree level.
@@ -57,13 +58,15 @@ pub struct Args {
     pub output: PathBuf,
     /// Finest level to build, 1 to 20. Levels past the density limit are subdivided (or wrapped
     /// with --wrap-sparse).
-    #[arg(long, short = 'l', value_name = "N", conflicts_with = "max_level")]
+    #[arg(long, short = 'l', value_name = "N", conflicts_with = "max_level",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(DEEPEST_LEVEL)))]
     pub level: Option<u32>,
-    /// Finest level: `auto` (the deepest the sampling density supports) or a number.
+    /// Finest level: `auto` (the deepest the sampling density supports) or a number, 1 to 20.
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_max_level)]
     pub max_level: MaxLevel,
-    /// Write this level to a PLY/OBJ output instead of the finest.
-    #[arg(long, value_name = "K")]
+    /// Write this level to a PLY/OBJ/OFF/STL output instead of the finest (0 = the root cube; at
+    /// most the finest level asked for). An .mrq output holds every level.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=i64::from(DEEPEST_LEVEL)))]
     pub write_level: Option<u32>,
     /// Relaxation passes per level (Laplacian smoothing, then re-projection onto the points).
     #[arg(long, value_name = "N", default_value_t = ReconOptions::default().relax_passes)]
@@ -79,8 +82,8 @@ pub struct Args {
     /// level; finer levels already lie close to the points).
     #[arg(long, value_name = "N", default_value_t = ReconOptions::default().fit_max_faces)]
     pub fit_max_faces: usize,
-    /// Median points per cell below which a level's topology is not trusted.
-    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().min_median_points)]
+    /// Median points per cell below which a level's topology is not trusted (a positive number).
+    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().min_median_points, value_parser = parse_min_points)]
     pub min_points: f64,
     /// Wrap levels past the density limit instead of subdividing (they fragment where sparse).
     #[arg(long)]
@@ -93,10 +96,10 @@ pub struct Args {
     /// points per occupied child cell.
     #[arg(long, value_name = "TAU", default_value_t = ReconOptions::default().region_density, value_parser = parse_density)]
     pub region_density: f64,
-    /// Worker threads (default: all cores). The output is the same for any number.
-    #[arg(long, short = 'j', value_name = "N")]
-    pub threads: Option<usize>,
-    /// Also write DIR/level-K.ply for every level K.
+    /// Worker threads, 1 or more (default: all cores). The output is the same for any number.
+    #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
+    /// Also write DIR/level-K.ply for every level K (DIR is created when missing).
     #[arg(long, value_name = "DIR")]
     pub all_levels: Option<PathBuf>,
     /// Print the per-level, per-stage time table (like the paper's Table 2) on standard error; with
@@ -113,6 +116,16 @@ pub struct Args {
     /// step) instead of placing vertices on their prediction lines.
     #[arg(long)]
     pub keep_positions: bool,
+    #[command(flatten)]
+    pub clobber: ClobberArgs,
+}
+
+fn parse_min_points(s: &str) -> anyhow::Result<f64> {
+    let v: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("the median points per cell must be a positive number, not {s}");
+    }
+    Ok(v)
 }
 
 fn parse_density(s: &str) -> anyhow::Result<f64> {
@@ -128,21 +141,17 @@ fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
         return Ok(MaxLevel::Auto);
     }
     let n: u32 = s.parse().with_context(|| format!("'{s}' is neither `auto` nor a level number"))?;
+    if n == 0 || n > DEEPEST_LEVEL {
+        bail!("the finest level must be 1 to {DEEPEST_LEVEL}, not {n}");
+    }
     Ok(MaxLevel::Level(n))
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
-    let is_mrq = mrq::has_mrq_extension(&args.output);
+    let is_mrq = args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output);
     let to = if is_mrq { None } else { args.output_format.to.or_else(|| Format::from_path(&args.output)) };
-    if !is_mrq {
-        let Some(to) = to else {
-            bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
-        };
-        if !to.writable() || !to.holds_faces() {
-            bail!("{to} cannot hold a mesh; write .ply, .obj, .off, .stl or .mrq");
-        }
-    }
+    check_options(args, is_mrq, to)?;
     let mut opts = ReconOptions::default();
     opts.max_level = args.level.map_or(args.max_level, MaxLevel::Level);
     opts.relax_passes = args.relax_passes;
@@ -157,7 +166,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     }
     let mesh = args.input_args.read(&args.input)?;
     let points = mesh.vertices.positions;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.map_or(0, usize::from)).build()?;
     let bar = progress::bar(1, "partitioning");
     let result = pool.install(|| {
         octowrap_recon::reconstruct_with_progress(&points, &opts, &mut |p| {
@@ -191,13 +200,18 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         None
     };
     if args.timings {
-        eprint!("{}", timing_table(&r));
+        say!("{}", timing_table(&r).trim_end());
         if let Some((p, secs)) = placement {
-            eprintln!(
+            say!(
                 "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
                  ({} of them because the move would fold a face or meet another vertex), {} without a line; \
                  largest move {:.3e}, RMS {:.3e}",
-                p.placed, p.kept, p.reverted, p.without_line, p.max_move, p.rms_move
+                p.placed,
+                p.kept,
+                p.reverted,
+                p.without_line,
+                p.max_move,
+                p.rms_move
             );
         }
     }
@@ -206,11 +220,13 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (k, level) in h.levels.iter().enumerate() {
             let path = dir.join(format!("level-{k}.ply"));
-            octowrap_io::write_path(&path, &level.mesh, &WriteOptions::default())?;
+            let mut w = WriteOptions::default();
+            w.no_clobber = args.clobber.no_clobber;
+            octowrap_io::write_path(&path, &level.mesh, &w)?;
         }
     }
     if is_mrq {
-        mrq::write(&args.output, h, &mrq_opts)?;
+        mrq::write(&args.output, h, &mrq_opts, args.clobber)?;
     } else {
         let k = args.write_level.map_or(h.levels.len() - 1, |k| k as usize);
         let Some(level) = h.levels.get(k) else {
@@ -219,9 +235,49 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         let mut w = WriteOptions::default();
         w.format = to;
         w.ascii = args.output_format.ascii;
+        w.no_clobber = args.clobber.no_clobber;
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Refuses, before any work, options that cannot be honoured or would be ignored.
+fn check_options(args: &Args, is_mrq: bool, to: Option<Format>) -> anyhow::Result<()> {
+    crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
+    if is_mrq {
+        if let Some(k) = args.write_level {
+            bail!("--write-level {k} picks the level of a single-mesh output; an .mrq output holds every level");
+        }
+        if args.output_format.ascii {
+            bail!("--ascii applies to PLY and STL output; MRQ is binary");
+        }
+    } else {
+        let Some(to) = to else {
+            bail!("cannot tell the output format of '{}': give it an extension or --to", args.output.display());
+        };
+        if !to.writable() || !to.holds_faces() {
+            bail!("{to} cannot hold a mesh; write .ply, .obj, .off, .stl or .mrq");
+        }
+        args.mrq.refuse_unless_mrq(&args.output)?;
+        if args.keep_positions {
+            bail!("--keep-positions applies to .mrq output; '{}' is not MRQ", args.output.display());
+        }
+    }
+    let finest = match args.level.map_or(args.max_level, MaxLevel::Level) {
+        MaxLevel::Level(n) => n,
+        MaxLevel::Auto => AUTO_CAP.saturating_add(args.region_levels).min(DEEPEST_LEVEL),
+    };
+    if let Some(k) = args.write_level.filter(|&k| k > finest) {
+        bail!(
+            "--write-level {k} is past the finest level built ({finest}): ask for --level {k} or a lower --write-level"
+        );
+    }
+    if let Some(dir) = &args.all_levels {
+        if dir.exists() && !dir.is_dir() {
+            bail!("--all-levels {}: not a folder", dir.display());
+        }
+    }
+    Ok(())
 }
 
 /// The per-level, per-stage table (seconds), like the paper's Table 2.

@@ -38,6 +38,9 @@ use super::input::InputArgs;
 /// E-NONMANIFOLD-VERTEX, E-ORIENTATION, W-DEGENERATE-FACE, W-ZERO-AREA-FACE, W-DUPLICATE-FACE,
 /// W-DUPLICATE-VERTEX, W-UNUSED-VERTEX, I-BOUNDARY-EDGE, E-SELF-INTERSECTION.
 ///
+/// A file holding no faces (an empty mesh, a point cloud, bytes no reader recognises as faces)
+/// meets no required property: there is nothing to check.
+///
 /// Exit codes: 0 every file meets every required property; 1 a required property fails;
 /// 2 a file could not be read.
 ///
@@ -123,13 +126,20 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             if super::mrq::is_mrq(path) {
                 // Decoding checks every level's checksum and that each level derives from its
                 // parent as the spec says; then every level gets the mesh checks.
-                let outcome = match octowrap_format::read_path(path, &octowrap_format::DecodeOptions::default()) {
+                let read = crate::limits::check_input_size(path)
+                    .and_then(|()| Ok(octowrap_format::read_path(path, &crate::limits::decode_options(None))?));
+                let outcome = match read {
                     Ok(file) => Outcome::Hierarchy(validate_hierarchy(&file.hierarchy, &o)),
-                    Err(e) => Outcome::Unreadable { error: format!("{name}: {e}") },
+                    Err(e) => Outcome::Unreadable { error: format!("{name}: {e:#}") },
                 };
-                return FileResult::new(name, outcome, required);
+                return judge(name, outcome, required);
             }
-            let outcome = match args.input_args.read_detected(path) {
+            // A name that is not UTF-8 gives no extension to the readers: say it.
+            let mut input_args = args.input_args.clone();
+            if path.to_str().is_none() && input_args.from.is_none() {
+                input_args.from = MeshFormat::from_path(Path::new(&*path.to_string_lossy()));
+            }
+            let outcome = match input_args.read_detected(path) {
                 Err(e) => Outcome::Unreadable { error: format!("{e:#}") },
                 Ok((format, mesh)) => {
                     o.weld = match args.weld {
@@ -140,9 +150,14 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                     Outcome::Mesh(validate_mesh(&mesh, &o))
                 }
             };
-            FileResult::new(name, outcome, required)
+            judge(name, outcome, required)
         })
         .collect();
+    for r in &results {
+        if faceless(&r.outcome) {
+            say!("note: {} holds no faces: it meets no required property", r.file);
+        }
+    }
 
     let stderr = std::io::stderr();
     let mut err = stderr.lock();
@@ -159,10 +174,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             ReportFormat::Sarif => Format::Sarif,
             ReportFormat::Text => Format::Text,
         };
-        let stdout = std::io::stdout();
-        let mut out = std::io::BufWriter::new(stdout.lock());
-        write_report(&mut out, format, &results)?;
-        out.flush()?;
+        crate::out::stdout(|w| write_report(w, format, &results))?;
     }
     Ok(if results.iter().any(|r| matches!(r.outcome, Outcome::Unreadable { .. })) {
         ExitCode::from(2)
@@ -171,6 +183,24 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// Whether a readable file holds no faces (in some level, for a hierarchy).
+fn faceless(outcome: &Outcome) -> bool {
+    match outcome {
+        Outcome::Mesh(r) => r.faces == 0,
+        Outcome::Hierarchy(h) => h.levels.is_empty() || h.levels.iter().any(|l| l.faces == 0),
+        Outcome::Unreadable { .. } => false,
+    }
+}
+
+/// Judges `outcome` against `required`; a file without faces fails every requirement.
+fn judge(name: String, outcome: Outcome, required: &[Requirement]) -> FileResult {
+    let mut r = FileResult::new(name, outcome, required);
+    if faceless(&r.outcome) {
+        r.failed_requirements = required.to_vec();
+    }
+    r
 }
 
 /// The files named, with directories searched (recursively, sorted) for mesh files.
@@ -192,14 +222,17 @@ fn collect(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// Adds the mesh files under `dir`, recognised by extension. A name that is not valid UTF-8 is
+/// judged by its extension all the same (and shown with replacement characters).
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
     for entry in std::fs::read_dir(dir)? {
         let path = entry?.path();
         if path.is_dir() {
             walk(&path, out)?;
-        } else if MeshFormat::from_path(&path).is_some_and(MeshFormat::holds_faces)
-            || super::mrq::has_mrq_extension(&path)
-        {
+            continue;
+        }
+        let shown = PathBuf::from(path.to_string_lossy().into_owned());
+        if MeshFormat::from_path(&shown).is_some_and(MeshFormat::holds_faces) || super::mrq::has_mrq_extension(&shown) {
             out.push(path);
         }
     }
