@@ -75,16 +75,11 @@ impl RunInfo {
     fn load_text(&self) -> String {
         let f = |l: Option<f64>| l.map_or_else(|| "?".to_owned(), |l| format!("{l:.1}"));
         let noise = if self.noisy() {
-            "; **noisy**: other jobs shared the machine, figures to be rerun on a quiet one"
+            ": **noisy**, other jobs shared the machine; to be rerun on a quiet one"
         } else {
-            "; quiet"
+            ": quiet"
         };
-        format!(
-            "load average {} at the start, {} at the end, {} cores{noise}",
-            f(self.load.0),
-            f(self.load.1),
-            self.cores
-        )
+        format!("load average {} at the start, {} at the end{noise}", f(self.load.0), f(self.load.1))
     }
 }
 
@@ -152,7 +147,7 @@ pub fn write(area: &str, info: &RunInfo, capture: &Capture) -> std::io::Result<P
     let raw_path = dir.join(&raw_name);
     std::fs::create_dir_all(dir.join("runs"))?;
     let raw = format!(
-        "{}\n{} · commit {} · {}\n{}\n\n{}",
+        "command: {}\nrun: {}, commit {}, {}\n{}\n\n{}",
         info.command,
         info.when,
         info.commit,
@@ -199,15 +194,10 @@ fn block(area: &str, info: &RunInfo, rows: &[Headline], raw_name: &str) -> Strin
     let title = AREAS.iter().find(|a| a.0 == area).map_or(area, |a| a.1);
     let (open, close) = markers(area);
     let mut s = format!("{open}\n## {title}\n\n");
-    let _ = writeln!(
-        s,
-        "`{}` · {} · commit {} · {} · {} · full output: [{raw_name}]({raw_name})\n",
-        info.command,
-        info.when,
-        info.commit,
-        info.machine,
-        info.load_text()
-    );
+    let _ = writeln!(s, "- command: `{}`", info.command);
+    let _ = writeln!(s, "- run: {}, commit {}, {}", info.when, info.commit, info.machine);
+    let _ = writeln!(s, "- {}", info.load_text());
+    let _ = writeln!(s, "- full output: [{raw_name}]({raw_name})\n");
     s.push_str("| case | figure | target | |\n|---|---|---|---|\n");
     if rows.is_empty() {
         s.push_str("| (no figures: see the full output) | | | |\n");

@@ -66,7 +66,15 @@ pub fn report() {
                 None,
             );
         }
-        Err(why) => outln!("| trimesh | torus | {faces} | – | – | – | – | not measured: {why} |"),
+        Err(why) => {
+            outln!("| trimesh | torus | {faces} | – | – | – | – | not measured: {why} |");
+            headline(
+                "trimesh is_watertight + is_winding_consistent on the same torus (comparison)",
+                format!("not measured: {why}"),
+                "–",
+                None,
+            );
+        }
     }
     outln!();
 }
