@@ -205,7 +205,7 @@ fn end_to_end(path: &Path, mesh: &Mesh) {
             match Command::new(program).args(args).output() {
                 Ok(o) if o.status.success() => {
                     best[i] = best[i].min(t.elapsed().as_secs_f64());
-                    last_err[i] = String::from_utf8_lossy(&o.stderr).trim().to_owned();
+                    last_err[i] = String::from(String::from_utf8_lossy(&o.stderr).trim());
                 }
                 Ok(o) => last_err[i] = format!("failed: {}", String::from_utf8_lossy(&o.stderr).trim()),
                 Err(e) => last_err[i] = format!("failed: {e}"),

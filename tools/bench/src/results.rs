@@ -52,10 +52,10 @@ pub struct RunInfo {
 impl RunInfo {
     /// The run of section `area` starting now; `load` at its start.
     pub fn start(area: &str) -> Self {
-        let vars: String = std::env::vars()
-            .filter(|(k, _)| k.starts_with("OCTOWRAP_") && k != "OCTOWRAP_DATA")
-            .map(|(k, v)| format!("{k}={v} "))
-            .collect();
+        let mut vars = String::new();
+        for (k, v) in std::env::vars().filter(|(k, _)| k.starts_with("OCTOWRAP_") && k != "OCTOWRAP_DATA") {
+            let _ = write!(vars, "{k}={v} ");
+        }
         Self {
             command: format!("{vars}cargo run --release -p octowrap-bench -- {area} --write-results"),
             when: utc_now(),
