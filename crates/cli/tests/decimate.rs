@@ -54,6 +54,32 @@ fn error_bounds_in_units_and_percent_and_measurement() {
 }
 
 #[test]
+fn the_certified_distance_is_measured_on_request() {
+    // By default only the free quadric estimate: no certified figure in the report or the summary.
+    let input = root().join("fixtures/meshes/valid/torus_quads.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("t.ply");
+    let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--ratio", "0.5", "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(report["decimate"]["error"].is_null(), "{report}");
+    assert!(report["measured"].is_null(), "{report}");
+    assert!(report["decimate"]["quadric_error"].as_f64().unwrap() > 0.0, "{report}");
+    let summary = text(&out.stderr);
+    assert!(summary.contains("error estimate (quadric") && !summary.contains("certified;"), "{summary}");
+    // --measure: the certified bound, at least the sampled distance, and both printed.
+    let out = octowrap(&["decimate", s(&input), "-o", s(&out_path), "--ratio", "0.5", "--measure", "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let certified = report["decimate"]["error"].as_f64().unwrap();
+    let sampled = report["measured"]["hausdorff"].as_f64().unwrap();
+    assert!(certified > 0.0 && sampled <= certified * (1.0 + 1e-9), "{report}");
+    let summary = text(&out.stderr);
+    assert!(summary.contains("certified;") && summary.contains("sampled: Hausdorff"), "{summary}");
+    assert!(!summary.contains("error estimate"), "{summary}");
+}
+
+#[test]
 fn max_error_bounds_the_written_output_and_quad_targets_are_met() {
     let input = root().join("fixtures/meshes/valid/torus_quads.obj");
     let mesh = read_path(&input, &ReadOptions::default()).unwrap();

@@ -130,7 +130,18 @@ pub fn one_sided(from: &Mesh, to: &Mesh, sampling: &Sampling) -> OneSided {
 
 fn one_sided_tris(from: &Triangles, to: &Bvh<'_>, sampling: Sampling) -> OneSided {
     let samples = from.samples(sampling.samples);
-    let d2: Vec<f64> = samples.par_iter().map(|s| to.nearest_squared(s.0)).collect();
+    // Consecutive samples lie on one triangle or on neighbours: each query starts from the
+    // previous one's nearest triangle (the distance found does not depend on the hint). Fixed
+    // chunks, not one per thread, keep the work the same whatever the thread count.
+    let mut d2 = vec![0.0f64; samples.len()];
+    d2.par_chunks_mut(256).zip(samples.par_chunks(256)).for_each(|(out, s)| {
+        let mut hint = None;
+        for (d, s) in out.iter_mut().zip(s) {
+            let (e, t) = to.nearest(s.0, hint);
+            *d = e;
+            hint = (t != u32::MAX).then_some(t);
+        }
+    });
     let (mut max2, mut sum2, mut sum1, mut wsum) = (0.0f64, 0.0, 0.0, 0.0);
     for (s, d) in samples.iter().zip(&d2) {
         max2 = max2.max(*d);
@@ -277,6 +288,7 @@ impl<'a> Bvh<'a> {
     }
 
     /// Squared distance from `p` to the nearest triangle (infinite when there are none).
+    #[cfg(test)]
     pub(crate) fn nearest_squared(&self, p: DVec3) -> f64 {
         self.nearest(p, None).0
     }
@@ -311,7 +323,14 @@ impl<'a> Bvh<'a> {
             let n = &self.nodes[i as usize];
             if n.count > 0 {
                 for &t in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    let e = point_triangle_squared(p, &self.tris.corners[t as usize]);
+                    // The triangle's own box first: it is never farther than the triangle, so a
+                    // box at `best` or beyond cannot hold a nearer point.
+                    let c = &self.tris.corners[t as usize];
+                    let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                    if (lo - p).max(p - hi).max(DVec3::ZERO).length_squared() >= best {
+                        continue;
+                    }
+                    let e = point_triangle_squared(p, c);
                     if e < best {
                         best = e;
                         best_tri = t;
@@ -367,6 +386,10 @@ mod tests {
             let p = DVec3::new(r(), r(), r()) * 1.4 - 0.2;
             let brute = tris.corners.iter().map(|c| point_triangle_squared(p, c)).fold(f64::INFINITY, f64::min);
             assert_eq!(bvh.nearest_squared(p), brute);
+            // Any hint, near or far, leaves the distance exact (the sampled distance seeds
+            // each query with the previous one's answer).
+            let hint = (r() * 300.0) as u32 % 300;
+            assert_eq!(bvh.nearest(p, Some(hint)).0, brute);
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Issue 4 figures: the MRQ codec. Bits per finest-level vertex for the whole file (all levels) at
+//! The MRQ codec. Bits per finest-level vertex for the whole file (all levels) at
 //! 12-bit quantization, split into topology and geometry; encode time; decode speed on one core.
 //! Hierarchies: synthetic ones (`octowrap_format::synthetic`), and the bunny (levels 0-6) and the
 //! dragon (levels 0-7) reconstructed by `octowrap_recon::reconstruct` when the shared data is
@@ -13,7 +13,7 @@ use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::{Hierarchy, Mesh};
 use rayon::prelude::*;
 
-use crate::util::{best_of, best_of_cpu, shared_data};
+use crate::util::{best_of, best_of_cpu, headline, shared_data};
 
 fn row(name: &str, h: &Hierarchy) {
     row_runs(name, h, 3);
@@ -49,7 +49,7 @@ fn row_version(name: &str, h: &Hierarchy, encode_runs: usize, version: u16) {
         .map(|s| if s.predictor & 2 != 0 { format!("{}L", s.mode) } else { s.mode.to_string() })
         .collect::<Vec<_>>()
         .join(" ");
-    println!(
+    outln!(
         "| {name} | {} | {:.0} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.1} | {:.1} | {modes} |",
         h.levels.len() - 1,
         finest,
@@ -62,6 +62,26 @@ fn row_version(name: &str, h: &Hierarchy, encode_runs: usize, version: u16) {
         all_vertices as f64 / dec_s / 1e6,
         all_vertices as f64 / dec_cpu / 1e6,
     );
+    // The page's figures: what `octowrap reconstruct -o X.mrq` writes (placed on version 3
+    // lines, version 3) for the scans, and the decode rate on the largest synthetic file.
+    let bits = bytes.len() as f64 * 8.0 / finest;
+    let rate = all_vertices as f64 / dec_cpu / 1e6;
+    if name.contains("(recon, placed on v3 lines, v3)") {
+        headline(
+            format!("{name}: bits per finest vertex, whole file, 12 bits"),
+            format!("{bits:.2}"),
+            "≤ 14 (goal 12)",
+            Some(bits <= 14.0),
+        );
+    }
+    if name.contains("placed on v3 lines") {
+        headline(
+            format!("{name}: decode, M vertices (all levels) per second of one thread's CPU"),
+            format!("{rate:.1}"),
+            "≥ 50",
+            Some(rate >= 50.0),
+        );
+    }
     // The decoded finest level, for the Draco comparison at the end of the section.
     let tmp = std::env::temp_dir().join("octowrap-bench-format");
     if std::fs::create_dir_all(&tmp).is_ok() && name.contains("recon") && !name.contains("v3") {
@@ -111,18 +131,18 @@ fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<(Vec<DVec3>, 
 
 /// Prints the format section.
 pub fn report() {
-    println!("## Format (issue 4): MRQ at 12-bit quantization");
-    println!();
-    println!("Bits per finest-level vertex for the whole file (every level). Topology and geometry are the");
-    println!("level blocks' topology streams and geometry stream compressed apart (their sum is within a");
-    println!("few bytes of the file). Decode: all levels, one thread, best of 5 after a warm-up decode;");
-    println!("M vertices (all levels) per second of wall time and of the thread's CPU time.");
-    println!("Modes per level: 0 base, 1 generic refinement, 2 lattice refinement.");
-    println!();
-    println!(
+    outln!("## Format: MRQ at 12-bit quantization");
+    outln!();
+    outln!("Bits per finest-level vertex for the whole file (every level). Topology and geometry are the");
+    outln!("level blocks' topology streams and geometry stream compressed apart (their sum is within a");
+    outln!("few bytes of the file). Decode: all levels, one thread, best of 5 after a warm-up decode;");
+    outln!("M vertices (all levels) per second of wall time and of the thread's CPU time.");
+    outln!("Modes per level: 0 base, 1 generic refinement, 2 lattice refinement.");
+    outln!();
+    outln!(
         "| hierarchy | finest level | finest vertices | bytes | bits/vertex | topology | geometry | encode ms | decode ms | decode Mv/s | Mv/s CPU | modes |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    outln!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     row("synthetic cube, lattice", &cube_hierarchy(8, Edits::default(), 1));
     row("synthetic cube, no lattice", &without_lattice(cube_hierarchy(8, Edits::default(), 1)));
     row("synthetic cube, pure subdivision", &cube_hierarchy(8, Edits::none(), 1));
@@ -165,9 +185,9 @@ pub fn report() {
                 }
             }
         }
-        None => println!("(shared data absent: bunny and dragon skipped)"),
+        None => outln!("(shared data absent: bunny and dragon skipped)"),
     }
-    println!();
+    outln!();
     draco();
     for (name, cloud, h, placed, stats, secs, placed3) in &models {
         line_accuracy(name, cloud, h, placed, stats, *secs, placed3);
@@ -186,7 +206,7 @@ fn line_accuracy(
     placed3: &Hierarchy,
 ) {
     let diag = Aabb::from_points(cloud).diagonal();
-    println!(
+    outln!(
         "Line placement on the {name} ({:.0} ms): {} vertices placed, {} kept where they were, {} without a line; \
          largest move {:.5}, RMS move {:.5} of the diagonal.",
         secs * 1e3,
@@ -196,19 +216,19 @@ fn line_accuracy(
         stats.max_move / diag,
         stats.rms_move / diag
     );
-    println!();
-    println!("| {name} level | pts→mesh RMS, reconstructed | placed on lines | change | placed on v3 lines | change |");
-    println!("|---|---|---|---|---|---|");
+    outln!();
+    outln!("| {name} level | pts→mesh RMS, reconstructed | placed on lines | change | placed on v3 lines | change |");
+    outln!("|---|---|---|---|---|---|");
     for (k, ((a, b), c)) in h.levels.iter().zip(&placed.levels).zip(&placed3.levels).enumerate().skip(1) {
         let rms = |m: &Mesh| points_to_mesh_rms(cloud, m) / diag;
         let (ra, rb, rc) = (rms(&a.mesh), rms(&b.mesh), rms(&c.mesh));
-        println!(
+        outln!(
             "| {k} | {ra:.5} | {rb:.5} | {:+.1} % | {rc:.5} | {:+.1} % |",
             (rb / ra - 1.0) * 100.0,
             (rc / ra - 1.0) * 100.0
         );
     }
-    println!();
+    outln!();
 }
 
 /// Draco at 12 bits on the same decoded finest levels (triangulated), through
@@ -226,17 +246,17 @@ fn draco() {
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("draco_bits.py");
     match std::process::Command::new("python3").arg(&script).args(&meshes).output() {
         Ok(out) if out.status.success() => {
-            println!(
+            outln!(
                 "Draco (DracoPy, 12-bit, compression level 10) on the same finest levels alone (as reconstructed, and placed on lines):"
             );
-            println!();
+            outln!();
             for line in String::from_utf8_lossy(&out.stdout).lines() {
-                println!("    {line}");
+                outln!("    {line}");
             }
         }
-        _ => println!("Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy)."),
+        _ => outln!("Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy)."),
     }
-    println!();
+    outln!();
 }
 
 /// RMS distance from `points` to `mesh` (quads split along one diagonal). The same measure as the

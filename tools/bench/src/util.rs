@@ -1,6 +1,9 @@
-//! Shared bench helpers: timing, data paths, machine description.
+//! Shared bench helpers: timing, data paths, machine description, and the capture of a
+//! section's output (its full text for the raw-run file, its headline figures for the results
+//! page, `results.rs`).
 
 use std::path::PathBuf;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// The shared data folder, if present.
@@ -37,7 +40,7 @@ pub fn best_of_cpu<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, f64, T) {
     (wall, cpu, out)
 }
 
-/// One line naming the machine: cores and CPU model.
+/// One line naming the machine: cores and CPU model (`/proc/cpuinfo`).
 pub fn machine_line() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -45,6 +48,57 @@ pub fn machine_line() -> String {
             s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
         })
         .unwrap_or_else(|| "unknown CPU".to_owned());
-    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
-    format!("machine: {cores} cores, {cpu}")
+    format!("machine: {} cores, {cpu}", cores())
+}
+
+/// The cores this process may use.
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}
+
+/// The one-minute load average (`/proc/loadavg`), if known.
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
+}
+
+/// The output of the section running now, and its headline figures.
+static CAPTURE: Mutex<Capture> = Mutex::new(Capture { text: String::new(), headlines: Vec::new() });
+
+/// What a section printed and the figures it reported for the results page.
+#[derive(Debug, Default)]
+pub struct Capture {
+    /// Everything the section printed on standard output.
+    pub text: String,
+    /// Its headline figures, in the order reported.
+    pub headlines: Vec<Headline>,
+}
+
+/// One row of an area's table on the results page.
+#[derive(Clone, Debug)]
+pub struct Headline {
+    /// What was measured.
+    pub case: String,
+    /// The figure, with its unit.
+    pub figure: String,
+    /// The target, or `–`.
+    pub target: String,
+    /// Whether the target is met (`None`: no target, or no verdict possible).
+    pub met: Option<bool>,
+}
+
+/// Prints `text` on standard output and keeps it for the raw-run file.
+pub fn emit(text: &str) {
+    print!("{text}");
+    CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).text.push_str(text);
+}
+
+/// Records a headline figure of the running section.
+pub fn headline(case: impl Into<String>, figure: impl Into<String>, target: impl Into<String>, met: Option<bool>) {
+    let h = Headline { case: case.into(), figure: figure.into(), target: target.into(), met };
+    CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).headlines.push(h);
+}
+
+/// Takes what was captured since the last call.
+pub fn take_capture() -> Capture {
+    std::mem::take(&mut *CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
 }
