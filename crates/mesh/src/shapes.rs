@@ -1,5 +1,6 @@
 //! Parametric test shapes: triangulated grids, open or wrapped into a cylinder or a torus. The
 //! benchmarks, examples and tests share them, so that "the 1 M-face torus" is one mesh everywhere.
+//! Compiled with the `testing` feature only (a dev-dependency feature, not the library's API).
 
 use octowrap_geom::DVec3;
 
