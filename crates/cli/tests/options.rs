@@ -62,6 +62,10 @@ fn combinations_are_refused_before_reading_the_input() {
     refused(&["reconstruct", m, "-o", s(&ply), "--keep-positions"], &["--keep-positions"], &ply);
     refused(&["convert", m, s(&ply), "--zstd-level", "5"], &["--zstd-level", "not MRQ"], &ply);
     refused(&["convert", m, s(&ply), "--level", "2"], &["--level", "single mesh"], &ply);
+    let hierarchy = root().join("fixtures/format/valid/cube3_lattice_exact.mrq");
+    let cut = ["decimate", s(&hierarchy), "-o", s(&ply), "--max-error", "0.1"];
+    refused(&[&cut[..], &["--lock-border"]].concat(), &["--lock-border", "cut"], &ply);
+    refused(&[&cut[..], &["--quads", "triangles"]].concat(), &["--quads", "cut"], &ply);
     for args in [
         vec!["reconstruct", m, "-o", s(&ply), "--level", "3", "--write-level", "9"],
         vec!["convert", m, s(&ply), "--zstd-level", "5"],

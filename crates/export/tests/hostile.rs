@@ -65,19 +65,3 @@ fn triangles_naming_a_vertex_twice_are_dropped_in_linear_time() {
     let e = to_glb_with_summary(&Hierarchy::single(d), &o).unwrap_err();
     assert!(matches!(e, ExportError::Invalid { .. }), "{e}");
 }
-
-#[test]
-fn a_fan_of_300_000_triangles_exports_with_meshopt() {
-    let k = 300_000u32;
-    let mut positions = vec![DVec3::Z];
-    positions.extend((0..k).map(|i| {
-        let a = f64::from(i) / f64::from(k) * std::f64::consts::TAU;
-        DVec3::new(a.cos(), a.sin(), 0.0)
-    }));
-    let mut m = Mesh::from_positions(positions);
-    m.faces = FaceList::from_triangles(&(0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect::<Vec<_>>());
-    let mut o = ExportOptions::default();
-    o.meshopt = true;
-    let (_, summary) = to_glb_with_summary(&Hierarchy::single(m), &o).unwrap();
-    assert_eq!(summary.levels[0].triangles, k as usize);
-}

@@ -199,6 +199,15 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mrq_in = mrq::is_mrq(&args.input);
     let cut = mrq_in
         && (args.view.is_some() || (args.max_error.is_some() && args.target_faces.is_none() && args.ratio.is_none()));
+    if cut && (args.lock_border || args.quads != "auto") {
+        let flag = if args.lock_border { "--lock-border" } else { "--quads" };
+        bail!(
+            "{flag} steers edge collapse, but '{}' with {} is cut through its levels, which keeps every \
+             boundary and face kind of the hierarchy: drop {flag}, or add --target-faces or --ratio to decimate",
+            args.input.display(),
+            if args.view.is_some() { "--view" } else { "--max-error alone" }
+        );
+    }
     if args.view.is_some() && !mrq_in {
         bail!(
             "--view cuts an MRQ hierarchy; '{}' is not an MRQ file (use --ratio or --max-error)",
