@@ -42,8 +42,7 @@ pub fn parse_size(s: &str) -> anyhow::Result<u64> {
     Ok(bytes as u64)
 }
 
-/// Refuses an input file larger than `--max-memory` before reading it (the readers hold the whole
-/// file in memory).
+/// Refuses an input file larger than `--max-memory` before reading it.
 pub fn check_input_size(path: &Path) -> anyhow::Result<()> {
     if path == Path::new("-") {
         return Ok(());
@@ -64,9 +63,7 @@ pub fn check_input_size(path: &Path) -> anyhow::Result<()> {
 /// The readers' options with `--max-memory` applied.
 pub fn read_options(mut o: octowrap_io::ReadOptions) -> octowrap_io::ReadOptions {
     let max = max_memory();
-    o.limits.max_decompressed_bytes = o.limits.max_decompressed_bytes.min(max);
-    // MERGE: once `octowrap_io::ReadOptions` has `max_memory: Option<u64>`, set it here:
-    // o.max_memory = Some(max);
+    o.limits.max_memory = Some(max);
     o
 }
 
@@ -74,8 +71,6 @@ pub fn read_options(mut o: octowrap_io::ReadOptions) -> octowrap_io::ReadOptions
 pub fn format_limits() -> octowrap_format::Limits {
     let mut l = octowrap_format::Limits::default();
     l.max_level_bytes = l.max_level_bytes.min(max_memory());
-    // MERGE: once `octowrap_format::Limits` has `max_memory: Option<u64>`, set it here:
-    // l.max_memory = Some(max_memory());
     l
 }
 
