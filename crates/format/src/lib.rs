@@ -98,7 +98,6 @@ pub mod synthetic;
 pub mod tamper;
 mod topology;
 
-use std::io::Write;
 use std::path::Path;
 
 use octowrap_mesh::{DVec3, Hierarchy};
