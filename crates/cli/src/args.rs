@@ -23,6 +23,11 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "SIZE", default_value = crate::limits::DEFAULT_MAX_MEMORY,
           value_parser = crate::limits::parse_size)]
     pub max_memory: u64,
+    /// Most scans one Stanford `.conf` set may list (each `bmesh` line is a scan read in full, so
+    /// a short file naming one scan thousands of times would read it thousands of times).
+    #[arg(long, global = true, value_name = "N", default_value_t = octowrap_io::Limits::DEFAULT_MAX_SCANS,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_scans: u64,
 }
 
 /// The subcommands. Each one's help is the doc comment of its `Args` in `cmd/` (a doc comment

@@ -10,6 +10,12 @@ use anyhow::{Context, bail};
 pub const DEFAULT_MAX_MEMORY: &str = "16G";
 
 static MAX_MEMORY: OnceLock<u64> = OnceLock::new();
+static MAX_SCANS: OnceLock<u64> = OnceLock::new();
+
+/// Records `--max-scans` for the whole run (the first call wins).
+pub fn set_max_scans(n: u64) {
+    let _ = MAX_SCANS.set(n);
+}
 
 /// Records `--max-memory` for the whole run (the first call wins).
 pub fn set_max_memory(bytes: u64) {
@@ -64,6 +70,7 @@ pub fn check_input_size(path: &Path) -> anyhow::Result<()> {
 pub fn read_options(mut o: octowrap_io::ReadOptions) -> octowrap_io::ReadOptions {
     let max = max_memory();
     o.limits.max_memory = Some(max);
+    o.limits.max_scans = *MAX_SCANS.get().unwrap_or(&octowrap_io::Limits::DEFAULT_MAX_SCANS);
     o
 }
 

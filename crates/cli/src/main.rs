@@ -30,6 +30,7 @@ fn main() -> ExitCode {
     out::remove_temporaries_on_signals();
     let cli = args::Cli::parse();
     limits::set_max_memory(cli.max_memory);
+    limits::set_max_scans(cli.max_scans);
     match cmd::run(cli) {
         Ok(code) => code,
         Err(err) if out::is_broken_pipe(&err) => ExitCode::SUCCESS,

@@ -195,3 +195,17 @@ fn max_memory_is_documented_and_refuses_a_larger_input() {
     let out = octowrap(&["info", s(&kitten()), "--max-memory", "1G"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
+
+#[test]
+fn max_scans_caps_a_conf_set_and_raising_it_reads_the_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("a.xyz");
+    std::fs::write(&scan, "0 0 0\n1 0 0\n0 1 0\n0 0 1\n").unwrap();
+    let conf = dir.path().join("set.conf");
+    std::fs::write(&conf, "bmesh a.xyz 0 0 0 0 0 0 1\n".repeat(3)).unwrap();
+    let out = dir.path().join("o.xyz");
+    refused(&["convert", s(&conf), s(&out), "--max-scans", "2"], &["set.conf", "--max-scans"], &out);
+    let ok = octowrap(&["convert", s(&conf), s(&out), "--max-scans", "3"]);
+    assert_eq!(ok.status.code(), Some(0), "{}", text(&ok.stderr));
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 12, "three scans of four points");
+}
