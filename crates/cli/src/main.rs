@@ -21,7 +21,8 @@ use clap::Parser;
 
 /// jemalloc, built with transparent huge pages on (`.cargo/config.toml`): the reconstruction of
 /// millions of points allocates and frees arrays of tens of megabytes per level, which the system
-/// allocator maps afresh each time (a page fault per 4 KiB); see tools/bench/RESULTS.md.
+/// allocator maps afresh each time (a page fault per 4 KiB); see `docs/decisions.md`,
+/// Benchmarks, "The binaries allocate with jemalloc".
 #[cfg(all(unix, not(target_env = "msvc")))]
 #[global_allocator]
 static ALLOC: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;

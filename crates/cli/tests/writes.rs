@@ -62,18 +62,40 @@ fn an_output_fifo_is_written_into_and_stays_a_fifo() {
     assert_eq!(names(dir.path()), ["out.ply"]);
 }
 
+/// A test never writes to the machine's own `/dev/null` or `/dev/stdout`: a regression would
+/// replace them with regular files. It writes to a null device made for it in a temporary folder
+/// (`mknod NAME c 1 3`, which needs root) and to a link to its own standard output.
 #[test]
-fn writing_to_dev_null_and_dev_stdout_leaves_them_devices() {
-    if !std::fs::metadata("/dev/null").is_ok_and(|m| m.file_type().is_char_device()) {
-        println!("SKIPPED: no /dev/null");
+fn writing_to_a_character_device_or_stdout_leaves_them_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let null = dir.path().join("null");
+    let made = Command::new("mknod").arg(&null).args(["c", "1", "3"]).stderr(Stdio::null()).status();
+    if !made.is_ok_and(|st| st.success()) {
+        println!("SKIPPED: mknod cannot make a character device here (it needs root)");
         return;
     }
-    let out = octowrap(&["convert", s(&cube()), "/dev/null", "--to", "ply"]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
-    let out = octowrap(&["convert", s(&cube()), "/dev/stdout", "--to", "obj"]);
+    let device = std::fs::symlink_metadata(&null).unwrap();
+    assert!(device.file_type().is_char_device());
+    for format in ["ply", "obj", "off", "stl"] {
+        let out = octowrap(&["convert", s(&cube()), s(&null), "--to", format]);
+        assert!(out.status.success(), "{format}: {}", text(&out.stderr));
+        let after = std::fs::symlink_metadata(&null).unwrap();
+        assert!(after.file_type().is_char_device(), "{format}: the device was replaced");
+        assert_eq!(after.rdev(), device.rdev(), "{format}: the same device");
+        assert_eq!(after.ino(), device.ino(), "{format}: the same node");
+    }
+    // Standard output (a pipe here) through a link in the temporary folder, as `/dev/stdout` is.
+    if !Path::new("/proc/self/fd/1").exists() {
+        println!("SKIPPED: no /proc/self/fd");
+        return;
+    }
+    let stdout = dir.path().join("stdout");
+    std::os::unix::fs::symlink("/proc/self/fd/1", &stdout).unwrap();
+    let out = octowrap(&["convert", s(&cube()), s(&stdout), "--to", "obj"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stdout).lines().any(|l| l.starts_with("f ")), "the OBJ went through the pipe");
+    assert!(std::fs::symlink_metadata(&stdout).unwrap().file_type().is_symlink(), "the link is kept");
+    assert_eq!(names(dir.path()), ["null", "stdout"], "no temporary is left");
 }
 
 #[test]

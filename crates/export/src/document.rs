@@ -15,7 +15,7 @@ use octowrap_mesh::{Hierarchy, Rgb};
 use serde_json::{Map, Value, json};
 
 use crate::geometry::{self, Streams};
-use crate::{ExportError, ExportOptions, LevelSummary, Levels, Summary, lod};
+use crate::{Error, ExportOptions, LevelSummary, Levels, Summary, lod};
 
 /// A document ready to be packed: its JSON model and the bytes of buffer 0.
 pub(crate) struct Built {
@@ -32,17 +32,17 @@ const LOD: &str = "MSFT_lod";
 const Q16: f64 = 32767.0;
 
 /// The exported levels, in `MSFT_lod` order (finest first).
-fn chain(h: &Hierarchy, levels: Levels) -> Result<Vec<usize>, ExportError> {
+fn chain(h: &Hierarchy, levels: Levels) -> Result<Vec<usize>, Error> {
     let n = h.levels.len();
     if n == 0 {
-        return Err(ExportError::invalid("the input holds no levels"));
+        return Err(Error::invalid("the input holds no levels"));
     }
     Ok(match levels {
         Levels::Finest => vec![n - 1],
         Levels::All => (0..n).rev().collect(),
         Levels::One(k) if k < n => vec![k],
         Levels::One(k) => {
-            return Err(ExportError::invalid(format!(
+            return Err(Error::invalid(format!(
                 "level {k} does not exist: the input has {n} level{} (0 to {})",
                 if n == 1 { "" } else { "s" },
                 n - 1
@@ -51,9 +51,9 @@ fn chain(h: &Hierarchy, levels: Levels) -> Result<Vec<usize>, ExportError> {
     })
 }
 
-fn check_options(opts: &ExportOptions) -> Result<Option<f64>, ExportError> {
+fn check_options(opts: &ExportOptions) -> Result<Option<f64>, Error> {
     if !(opts.max_screen_error.is_finite() && opts.max_screen_error > 0.0) {
-        return Err(ExportError::invalid(format!(
+        return Err(Error::invalid(format!(
             "the tolerated screen error must be a positive number, not {}",
             opts.max_screen_error
         )));
@@ -61,12 +61,12 @@ fn check_options(opts: &ExportOptions) -> Result<Option<f64>, ExportError> {
     match opts.crease_angle_deg {
         None => Ok(None),
         Some(a) if a.is_finite() && (0.0..=180.0).contains(&a) => Ok((a < 180.0).then(|| a.to_radians().cos())),
-        Some(a) => Err(ExportError::invalid(format!("the crease angle must be between 0 and 180 degrees, not {a}"))),
+        Some(a) => Err(Error::invalid(format!("the crease angle must be between 0 and 180 degrees, not {a}"))),
     }
 }
 
 /// Builds the document for `h`; `bin_uri` is buffer 0's URI (`None` for GLB's binary chunk).
-pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) -> Result<Built, ExportError> {
+pub(crate) fn build(h: &Hierarchy, opts: &ExportOptions, bin_uri: Option<&str>) -> Result<Built, Error> {
     let crease_cos = check_options(opts)?;
     let chain = chain(h, opts.levels)?;
     let (mut streams, errors) = level_streams(h, &chain, crease_cos, opts.colors)?;
@@ -202,29 +202,29 @@ fn level_streams(
     chain: &[usize],
     crease_cos: Option<f64>,
     colors: bool,
-) -> Result<(Vec<Streams>, Vec<f64>), ExportError> {
+) -> Result<(Vec<Streams>, Vec<f64>), Error> {
     let mut streams = Vec::with_capacity(chain.len());
     let mut errors = Vec::with_capacity(chain.len());
     for &k in chain {
         let mesh = &h.levels[k].mesh;
-        mesh.check_indices().map_err(|e| ExportError::invalid(format!("level {k}: {e}")))?;
+        mesh.check_indices().map_err(|e| Error::invalid(format!("level {k}: {e}")))?;
         if mesh.faces.is_empty() {
-            return Err(ExportError::invalid(format!(
+            return Err(Error::invalid(format!(
                 "level {k} has no faces: glTF export writes surfaces (reconstruct a point cloud first)"
             )));
         }
         let s = geometry::build(mesh, crease_cos, colors);
         if s.indices.is_empty() {
-            return Err(ExportError::invalid(format!(
+            return Err(Error::invalid(format!(
                 "level {k}: every triangle of its {} faces names a vertex twice, so none has an area to draw",
                 mesh.faces.len()
             )));
         }
         if let Some(p) = s.positions.iter().find(|p| !p.is_finite()) {
-            return Err(ExportError::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
+            return Err(Error::invalid(format!("level {k}: a face uses a vertex at a non-finite position {p}")));
         }
         if let Some(p) = s.positions.iter().find(|p| !p.as_vec3().is_finite()) {
-            return Err(ExportError::limit(format!("level {k}: position {p} is beyond the range of f32")));
+            return Err(Error::limit(format!("level {k}: position {p} is beyond the range of f32")));
         }
         errors.push(lod::mean_edge_length(mesh));
         streams.push(s);
@@ -387,7 +387,7 @@ impl Doc {
     }
 
     /// Appends a view of `count` elements of `stride` bytes at a 4-byte boundary.
-    fn view(&mut self, bytes: &[u8], stride: usize, vertex: bool, index_vertices: usize) -> Result<u32, ExportError> {
+    fn view(&mut self, bytes: &[u8], stride: usize, vertex: bool, index_vertices: usize) -> Result<u32, Error> {
         while self.data.len() % 4 != 0 {
             self.data.push(0);
         }
@@ -433,7 +433,7 @@ impl Doc {
         json::Index::new(self.root.accessors.len() as u32 - 1)
     }
 
-    fn primitive(&mut self, s: &Streams, grid: Option<&Grid>) -> Result<json::mesh::Primitive, ExportError> {
+    fn primitive(&mut self, s: &Streams, grid: Option<&Grid>) -> Result<json::mesh::Primitive, Error> {
         let n = s.positions.len();
         let mut attributes = std::collections::BTreeMap::new();
         // POSITION
@@ -573,25 +573,25 @@ fn bounds(values: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
 }
 
 /// meshopt attribute codec, version 0 (the only one `EXT_meshopt_compression` allows).
-fn encode_attributes(bytes: &[u8], stride: usize) -> Result<Vec<u8>, ExportError> {
+fn encode_attributes(bytes: &[u8], stride: usize) -> Result<Vec<u8>, Error> {
     let r = match stride {
         4 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 4]>(bytes), 2, Some(0)),
         8 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 8]>(bytes), 2, Some(0)),
         12 => meshopt::encode_vertex_buffer_level(bytemuck::cast_slice::<u8, [u8; 12]>(bytes), 2, Some(0)),
         _ => unreachable!("the exporter writes vertex strides of 4, 8 and 12 bytes only"),
     };
-    r.map_err(|e| ExportError::invalid(format!("meshopt could not encode a vertex stream: {e}")))
+    r.map_err(|e| Error::invalid(format!("meshopt could not encode a vertex stream: {e}")))
 }
 
 /// meshopt triangle index codec.
-fn encode_triangles(bytes: &[u8], stride: usize, vertices: usize) -> Result<Vec<u8>, ExportError> {
+fn encode_triangles(bytes: &[u8], stride: usize, vertices: usize) -> Result<Vec<u8>, Error> {
     let indices: Vec<u32> = if stride == 2 {
         bytemuck::cast_slice::<u8, u16>(bytes).iter().map(|&i| u32::from(i)).collect()
     } else {
         bytemuck::cast_slice::<u8, u32>(bytes).to_vec()
     };
     meshopt::encode_index_buffer(&indices, vertices)
-        .map_err(|e| ExportError::invalid(format!("meshopt could not encode an index stream: {e}")))
+        .map_err(|e| Error::invalid(format!("meshopt could not encode an index stream: {e}")))
 }
 
 #[cfg(test)]

@@ -1,10 +1,10 @@
 //! The export error, in the house taxonomy (`Invalid`, `Unsupported`, `LimitExceeded`, `Io`).
 
 /// Why an export failed. `file` names the file concerned (the output for I/O errors; callers may
-/// name the input with [`ExportError::in_file`]); it is empty when no file is involved.
+/// name the input with [`Error::in_file`]); it is empty when no file is involved.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
-pub enum ExportError {
+pub enum Error {
     /// The input cannot be exported as asked (no faces, broken indices, non-finite positions, a
     /// level that does not exist, an option out of range).
     #[error("{}invalid: {message}", prefix(file))]
@@ -45,7 +45,7 @@ fn prefix(file: &str) -> String {
     if file.is_empty() { String::new() } else { format!("{file}: ") }
 }
 
-impl ExportError {
+impl Error {
     pub(crate) fn invalid(message: impl Into<String>) -> Self {
         Self::Invalid { file: String::new(), message: message.into() }
     }
@@ -83,7 +83,7 @@ mod tests {
 
     #[test]
     fn messages_name_the_file() {
-        let e = ExportError::invalid("level 3 has no faces");
+        let e = Error::invalid("level 3 has no faces");
         assert_eq!(e.to_string(), "invalid: level 3 has no faces");
         let e = e.in_file("dragon.mrq").in_file("ignored");
         assert_eq!(e.file(), "dragon.mrq");

@@ -39,16 +39,17 @@
 //! let mut options = ExportOptions::default();
 //! options.levels = Levels::All;
 //! options.quantize = true;
-//! let glb = to_glb(&Hierarchy::single(mesh), &options)?;
+//! let (glb, summary) = to_glb(&Hierarchy::single(mesh), &options)?;
 //! assert_eq!(&glb[..4], b"glTF");
 //! // Deterministic: the same input and options give the same bytes.
-//! assert_eq!(glb, to_glb(&Hierarchy::single(mesh_again()), &options)?);
+//! assert_eq!(summary.bytes, glb.len() as u64);
+//! assert_eq!(glb, to_glb(&Hierarchy::single(mesh_again()), &options)?.0);
 //! # fn mesh_again() -> Mesh {
 //! #     let mut m = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
 //! #     m.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
 //! #     m
 //! # }
-//! # Ok::<(), octowrap_export::ExportError>(())
+//! # Ok::<(), octowrap_export::Error>(())
 //! ```
 
 #![deny(missing_docs)]
@@ -59,7 +60,7 @@ mod geometry;
 pub mod lod;
 mod write;
 
-pub use error::ExportError;
+pub use error::Error;
 pub use write::{Container, write_path};
 
 use octowrap_mesh::Hierarchy;
@@ -151,24 +152,20 @@ pub struct Summary {
     pub bytes: u64,
 }
 
-/// Exports `h` as one GLB file in memory. See the crate docs for what it holds.
+/// Exports `h` as one GLB file in memory, with a summary of what it holds. See the crate docs for
+/// what the file holds.
 ///
-/// Fails with [`ExportError::Invalid`] when the hierarchy has no levels, the asked level does not
+/// Fails with [`Error::Invalid`] when the hierarchy has no levels, the asked level does not
 /// exist, an exported level has no faces, broken indices or non-finite positions, or an option is
-/// out of range; with [`ExportError::LimitExceeded`] when the result would exceed GLB's 4 GiB.
-pub fn to_glb(h: &Hierarchy, opts: &ExportOptions) -> Result<Vec<u8>, ExportError> {
-    Ok(to_glb_with_summary(h, opts)?.0)
-}
-
-/// Like [`to_glb`], also returning what was written.
-pub fn to_glb_with_summary(h: &Hierarchy, opts: &ExportOptions) -> Result<(Vec<u8>, Summary), ExportError> {
+/// out of range; with [`Error::LimitExceeded`] when the result would exceed GLB's 4 GiB.
+pub fn to_glb(h: &Hierarchy, opts: &ExportOptions) -> Result<(Vec<u8>, Summary), Error> {
     let built = document::build(h, opts, None)?;
     write::glb(built)
 }
 
 /// Exports `h` as glTF JSON plus its binary buffer, which the JSON names by `bin_uri` (a relative
 /// URI such as `model.bin`). Errors as [`to_glb`].
-pub fn to_gltf(h: &Hierarchy, opts: &ExportOptions, bin_uri: &str) -> Result<(Vec<u8>, Vec<u8>, Summary), ExportError> {
+pub fn to_gltf(h: &Hierarchy, opts: &ExportOptions, bin_uri: &str) -> Result<(Vec<u8>, Vec<u8>, Summary), Error> {
     let built = document::build(h, opts, Some(bin_uri))?;
     Ok(write::gltf(built))
 }

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::document::Built;
-use crate::{ExportError, ExportOptions, Summary, to_glb_with_summary, to_gltf};
+use crate::{Error, ExportOptions, Summary, to_glb, to_gltf};
 use octowrap_mesh::Hierarchy;
 
 /// The two glTF container forms.
@@ -42,7 +42,7 @@ fn json_bytes(built: &Built, pretty: bool) -> Vec<u8> {
 
 /// Packs a built document as GLB: 12-byte header, JSON chunk padded with spaces, binary chunk
 /// padded with zeros, every chunk 4-byte aligned.
-pub(crate) fn glb(built: Built) -> Result<(Vec<u8>, Summary), ExportError> {
+pub(crate) fn glb(built: Built) -> Result<(Vec<u8>, Summary), Error> {
     let mut json = json_bytes(&built, false);
     while json.len() % 4 != 0 {
         json.push(b' ');
@@ -53,7 +53,7 @@ pub(crate) fn glb(built: Built) -> Result<(Vec<u8>, Summary), ExportError> {
     }
     let total = 12 + 8 + json.len() as u64 + if bin.is_empty() { 0 } else { 8 + bin.len() as u64 };
     let Ok(total32) = u32::try_from(total) else {
-        return Err(ExportError::limit(format!("the GLB would be {total} bytes; the format's limit is 4 GiB")));
+        return Err(Error::limit(format!("the GLB would be {total} bytes; the format's limit is 4 GiB")));
     };
     let mut out = Vec::with_capacity(total as usize);
     out.extend_from_slice(GLB_MAGIC);
@@ -94,22 +94,22 @@ pub(crate) fn gltf(built: Built) -> (Vec<u8>, Vec<u8>, Summary) {
 /// options.quantize = true;
 /// let summary = write_path("dragon.glb".as_ref(), &hierarchy, &options)?;
 /// println!("{} levels, {} bytes", summary.levels.len(), summary.bytes);
-/// # Ok::<(), octowrap_export::ExportError>(())
+/// # Ok::<(), octowrap_export::Error>(())
 /// ```
-pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Summary, ExportError> {
+pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Summary, Error> {
     let name = path.display().to_string();
     let file_opts = octowrap_fsutil::WriteOptions::no_clobber(opts.no_clobber);
     match Container::from_path(path) {
         Some(Container::Glb) => {
             check(path, &file_opts)?;
-            let (bytes, summary) = to_glb_with_summary(h, opts).map_err(|e| e.in_file(&name))?;
+            let (bytes, summary) = to_glb(h, opts).map_err(|e| e.in_file(&name))?;
             write_file(path, &file_opts, &bytes)?;
             Ok(summary)
         }
         Some(Container::Gltf) => {
             let bin_path = path.with_extension("bin");
             let Some(bin_name) = bin_path.file_name().and_then(|n| n.to_str()) else {
-                return Err(ExportError::Unsupported {
+                return Err(Error::Unsupported {
                     file: name,
                     message: "the .bin file name beside it must be valid UTF-8".to_owned(),
                 });
@@ -122,7 +122,7 @@ pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Su
             write_file(path, &file_opts, &json)?;
             Ok(summary)
         }
-        None => Err(ExportError::Unsupported {
+        None => Err(Error::Unsupported {
             file: name,
             message: "the output must end in .glb (binary glTF) or .gltf (JSON plus .bin)".to_owned(),
         }),
@@ -142,17 +142,17 @@ fn percent_encode(name: &str) -> String {
     out
 }
 
-fn io_error(path: &Path, source: std::io::Error) -> ExportError {
-    ExportError::Io { file: path.display().to_string(), source }
+fn io_error(path: &Path, source: std::io::Error) -> Error {
+    Error::Io { file: path.display().to_string(), source }
 }
 
 /// Refuses, before any work, an output that cannot be written (a folder, a missing folder, an
 /// existing file with `no_clobber`).
-fn check(path: &Path, opts: &octowrap_fsutil::WriteOptions) -> Result<(), ExportError> {
+fn check(path: &Path, opts: &octowrap_fsutil::WriteOptions) -> Result<(), Error> {
     octowrap_fsutil::check_output(path, opts).map_err(|e| io_error(path, e))
 }
 
-fn write_file(path: &Path, opts: &octowrap_fsutil::WriteOptions, bytes: &[u8]) -> Result<(), ExportError> {
+fn write_file(path: &Path, opts: &octowrap_fsutil::WriteOptions, bytes: &[u8]) -> Result<(), Error> {
     octowrap_fsutil::write_file(path, opts, |w| w.write_all(bytes))
         .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| io_error(path, e))
 }
@@ -172,7 +172,7 @@ mod tests {
     #[test]
     fn unsupported_extension_names_the_file() {
         let e = write_path(Path::new("out.fbx"), &Hierarchy::default(), &ExportOptions::default()).unwrap_err();
-        assert!(matches!(e, ExportError::Unsupported { .. }));
+        assert!(matches!(e, Error::Unsupported { .. }));
         assert!(e.to_string().starts_with("out.fbx: unsupported"), "{e}");
     }
 }

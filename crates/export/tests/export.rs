@@ -6,7 +6,7 @@ mod support;
 
 use std::path::Path;
 
-use octowrap_export::{ExportError, ExportOptions, Levels, Summary, to_glb, to_glb_with_summary, write_path};
+use octowrap_export::{Error, ExportOptions, Levels, Summary, to_glb, write_path};
 use octowrap_format::synthetic::{Edits, cube_hierarchy};
 use octowrap_mesh::{DVec3, FaceList, Hierarchy, Mesh};
 use serde_json::Value;
@@ -65,7 +65,7 @@ fn hierarchy() -> Hierarchy {
 #[test]
 fn every_level_is_its_own_mesh_and_node_in_a_lod_chain() {
     let h = hierarchy();
-    let (glb, summary) = to_glb_with_summary(&h, &opts(Levels::All, false, false)).unwrap();
+    let (glb, summary) = to_glb(&h, &opts(Levels::All, false, false)).unwrap();
     let report = save_and_validate("cube5_all.glb", &glb);
     // The gltf crate reads the plain file (MSFT_lod is only used, not required).
     let gltf = gltf::Gltf::from_slice(&glb).expect("the gltf crate reads it");
@@ -120,7 +120,7 @@ fn every_level_is_its_own_mesh_and_node_in_a_lod_chain() {
 #[test]
 fn quantized_positions_stay_within_half_a_step() {
     let h = hierarchy();
-    let (glb, summary) = to_glb_with_summary(&h, &opts(Levels::All, true, false)).unwrap();
+    let (glb, summary) = to_glb(&h, &opts(Levels::All, true, false)).unwrap();
     // The gltf crate cannot read i16 positions: the validator's report gives the counts.
     if let Some(r) = save_and_validate("cube5_all_quantized.glb", &glb) {
         assert_counts(&r, &summary);
@@ -165,8 +165,8 @@ fn meshopt_views_decode_to_the_plain_buffers() {
     // The hierarchy has u16 indices; the 255 x 255 grid u32 indices and colours.
     let inputs = [("cube5_all", hierarchy()), ("grid255", Hierarchy::single(grid(255)))];
     for ((name, h), quantize) in inputs.iter().flat_map(|i| [(i, false), (i, true)]) {
-        let plain = to_glb(h, &opts(Levels::All, quantize, false)).unwrap();
-        let (packed, summary) = to_glb_with_summary(h, &opts(Levels::All, quantize, true)).unwrap();
+        let plain = to_glb(h, &opts(Levels::All, quantize, false)).unwrap().0;
+        let (packed, summary) = to_glb(h, &opts(Levels::All, quantize, true)).unwrap();
         if let Some(r) = save_and_validate(&format!("{name}_meshopt_q{}.glb", u8::from(quantize)), &packed) {
             assert_counts(&r, &summary);
         }
@@ -285,7 +285,7 @@ fn grid(n: u32) -> Mesh {
 fn indices_are_u16_while_they_fit_and_u32_beyond() {
     for (n, want) in [(254u32, 5123u64), (255, 5125)] {
         // 255 x 255 quads have 256^2 = 65536 vertices: one too many for u16 (65535 is restart).
-        let glb = to_glb(&Hierarchy::single(grid(n)), &ExportOptions::default()).unwrap();
+        let glb = to_glb(&Hierarchy::single(grid(n)), &ExportOptions::default()).unwrap().0;
         save_and_validate(&format!("grid{n}.glb"), &glb);
         let (doc, _) = split(&glb);
         let idx = doc["meshes"][0]["primitives"][0]["indices"].as_u64().unwrap() as usize;
@@ -297,7 +297,7 @@ fn indices_are_u16_while_they_fit_and_u32_beyond() {
 #[test]
 fn colours_are_written_linear_and_can_be_left_out() {
     let m = grid(3);
-    let glb = to_glb(&Hierarchy::single(m.clone()), &ExportOptions::default()).unwrap();
+    let glb = to_glb(&Hierarchy::single(m.clone()), &ExportOptions::default()).unwrap().0;
     save_and_validate("grid3_colors.glb", &glb);
     let gltf = gltf::Gltf::from_slice(&glb).unwrap();
     let blob = gltf.blob.clone().unwrap();
@@ -310,7 +310,7 @@ fn colours_are_written_linear_and_can_be_left_out() {
     assert_eq!(colors[0], [0, 14_146, 65_535], "sRGB (0, 128, 255) in linear 16-bit");
     let mut no = ExportOptions::default();
     no.colors = false;
-    let (doc, _) = split(&to_glb(&Hierarchy::single(m), &no).unwrap());
+    let (doc, _) = split(&to_glb(&Hierarchy::single(m), &no).unwrap().0);
     assert!(doc["meshes"][0]["primitives"][0]["attributes"].get("COLOR_0").is_none());
 }
 
@@ -322,7 +322,7 @@ fn a_crease_angle_splits_the_cube_corners() {
     let count = |crease: Option<f64>| {
         let mut o = ExportOptions::default();
         o.crease_angle_deg = crease;
-        let (glb, s) = to_glb_with_summary(&Hierarchy::single(cube.clone()), &o).unwrap();
+        let (glb, s) = to_glb(&Hierarchy::single(cube.clone()), &o).unwrap();
         save_and_validate(&format!("cube_crease_{crease:?}.glb"), &glb);
         s.levels[0].vertices
     };
@@ -359,8 +359,8 @@ fn the_same_input_gives_the_same_bytes() {
         let mut o = opts(Levels::All, q, m);
         o.crease_angle_deg = Some(40.0);
         o.metadata = vec![("units".into(), "m".into()), ("source".into(), "synthetic".into())];
-        let a = to_glb(&hierarchy(), &o).unwrap();
-        let b = to_glb(&hierarchy(), &o).unwrap();
+        let a = to_glb(&hierarchy(), &o).unwrap().0;
+        let b = to_glb(&hierarchy(), &o).unwrap().0;
         assert!(a == b, "quantize {q}, meshopt {m}");
         let (doc, _) = split(&a);
         assert_eq!(doc["asset"]["extras"]["octowrap"]["units"], "m");
@@ -369,7 +369,7 @@ fn the_same_input_gives_the_same_bytes() {
 
 fn invalid(h: &Hierarchy, o: &ExportOptions) -> String {
     match to_glb(h, o) {
-        Err(e @ ExportError::Invalid { .. }) => e.to_string(),
+        Err(e @ Error::Invalid { .. }) => e.to_string(),
         other => panic!("expected an Invalid error, got {other:?}"),
     }
 }
@@ -407,7 +407,7 @@ fn hostile_input_gets_named_errors() {
     assert!(invalid(&Hierarchy::single(quad()), &o).contains("screen error"));
     let mut m = quad();
     m.vertices.positions[0] = DVec3::splat(1e300);
-    assert!(matches!(to_glb(&Hierarchy::single(m), &d), Err(ExportError::LimitExceeded { .. })));
+    assert!(matches!(to_glb(&Hierarchy::single(m), &d), Err(Error::LimitExceeded { .. })));
     // A failed write leaves no file behind and names the output.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.glb");
@@ -415,7 +415,7 @@ fn hostile_input_gets_named_errors() {
     assert!(e.to_string().starts_with(&format!("{}: invalid", out.display())), "{e}");
     assert!(!out.exists());
     let e = write_path(Path::new("/nonexistent-dir/x.glb"), &Hierarchy::single(quad()), &d).unwrap_err();
-    assert!(matches!(e, ExportError::Io { .. }) && e.to_string().contains("/nonexistent-dir/x.glb"), "{e}");
+    assert!(matches!(e, Error::Io { .. }) && e.to_string().contains("/nonexistent-dir/x.glb"), "{e}");
 }
 
 /// Polygon soups (triangles, quads, n-gons, not manifold) under every option set: the validator
@@ -427,7 +427,7 @@ fn polygon_soups_validate_under_every_option_set() {
         m.vertices.colors = Some((0..m.vertex_count()).map(|i| [(i * 7) as u8, (i * 13) as u8, 200]).collect());
         let mut o = opts(Levels::All, seed & 1 == 1, seed & 2 == 2);
         o.crease_angle_deg = Some(35.0);
-        let (glb, summary) = to_glb_with_summary(&Hierarchy::single(m.clone()), &o).unwrap();
+        let (glb, summary) = to_glb(&Hierarchy::single(m.clone()), &o).unwrap();
         let drawn = m.triangles().iter().filter(|[a, b, c]| a != b && b != c && a != c).count();
         assert_eq!(summary.levels[0].triangles, drawn, "every triangle with three distinct corners");
         if let Some(r) = save_and_validate(&format!("soup{seed}.glb"), &glb) {
@@ -453,7 +453,7 @@ mod properties {
             for f in &faces { m.faces.push(f); }
             let mut o = opts(Levels::All, quantize, meshopt);
             o.crease_angle_deg = crease;
-            if let Ok(glb) = to_glb(&Hierarchy::single(m), &o) {
+            if let Ok((glb, _)) = to_glb(&Hierarchy::single(m), &o) {
                 let g = gltf::binary::Glb::from_slice(&glb).unwrap();
                 let doc: Value = serde_json::from_slice(&g.json).unwrap();
                 prop_assert_eq!(doc["asset"]["version"].as_str(), Some("2.0"));

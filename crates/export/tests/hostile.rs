@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use octowrap_export::{ExportError, ExportOptions, to_glb_with_summary, write_path};
+use octowrap_export::{Error, ExportOptions, to_glb, write_path};
 use octowrap_mesh::{DVec3, FaceList, Hierarchy, Mesh};
 
 fn square() -> Hierarchy {
@@ -36,7 +36,7 @@ fn a_link_stays_a_link_a_mode_is_kept_and_no_clobber_refuses() {
     let mut o = ExportOptions::default();
     o.no_clobber = true;
     let e = write_path(&real, &square(), &o).unwrap_err();
-    assert!(matches!(e, ExportError::Io { .. }), "{e}");
+    assert!(matches!(e, Error::Io { .. }), "{e}");
     assert!(e.to_string().starts_with(&real.display().to_string()), "names the file: {e}");
     // .gltf: an existing .bin beside it is refused before the .gltf is written.
     std::fs::write(dir.path().join("m.bin"), b"keep").unwrap();
@@ -56,12 +56,12 @@ fn triangles_naming_a_vertex_twice_are_dropped_in_linear_time() {
     m.faces.push(&[0, 1, 2]);
     let mut o = ExportOptions::default();
     o.meshopt = true;
-    let (_, summary) = to_glb_with_summary(&Hierarchy::single(m), &o).unwrap();
+    let (_, summary) = to_glb(&Hierarchy::single(m), &o).unwrap();
     assert_eq!(summary.levels[0].triangles, 1);
     assert_eq!(summary.levels[0].source_faces, 300_001);
     // Only degenerate triangles: nothing to draw, a named error.
     let mut d = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X]);
     d.faces.push(&[0, 1, 1]);
-    let e = to_glb_with_summary(&Hierarchy::single(d), &o).unwrap_err();
-    assert!(matches!(e, ExportError::Invalid { .. }), "{e}");
+    let e = to_glb(&Hierarchy::single(d), &o).unwrap_err();
+    assert!(matches!(e, Error::Invalid { .. }), "{e}");
 }

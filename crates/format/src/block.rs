@@ -101,9 +101,9 @@ pub const BLOCK_FLAG_LATTICE: u8 = 1;
 pub const PREDICTOR_NORMAL: u8 = 0;
 /// Lattice predictor 1: the parent surface's bilinear point (spec §6.3).
 pub const PREDICTOR_BILINEAR: u8 = 1;
-/// Bit 1 of the block's `predictor` byte: the geometry stream has the line layout (spec §6.6).
+/// Bit 1 of the block's `predictor` byte: the geometry stream has the line layout (spec §6.1, §6.6).
 pub const PREDICTOR_LINES: u8 = 2;
-/// The largest magnitude of a line parameter `j` (spec §6.6).
+/// The largest magnitude of a line parameter `J` (spec §6.1, "Decoding a vertex").
 pub const LINE_PARAM_LIMIT: i64 = 1 << 30;
 /// The largest line spacing exponent (spec §4.1, `line_shift`).
 pub const MAX_LINE_SHIFT: u32 = 16;

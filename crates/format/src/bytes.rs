@@ -22,7 +22,7 @@ pub fn unzigzag(v: u64) -> i64 {
     ((v >> 1) as i64) ^ -((v & 1) as i64)
 }
 
-/// Writes `values` as byte planes (spec §2.4): one count byte `P` (the fewest bytes that hold the
+/// Writes `values` as byte planes (spec §1.5): one count byte `P` (the fewest bytes that hold the
 /// largest value, 0 for all zeros), then `P` planes of `values.len()` bytes, least significant first.
 pub fn put_planes(out: &mut Vec<u8>, values: &[u64]) {
     let max = values.iter().copied().max().unwrap_or(0);

@@ -169,7 +169,7 @@ fn decode_levels(
     Ok(out)
 }
 
-/// Fails when the input holds bytes after the last level (spec §3.2: nothing follows it).
+/// Fails when the input holds bytes after the last level (spec §3.5: a decoder rejects them).
 fn reject_trailing_bytes(r: &mut impl Read, e: &LevelEntry, k: u32) -> Result<(), DecodeError> {
     let mut byte = [0u8; 1];
     loop {

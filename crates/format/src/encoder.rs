@@ -101,7 +101,7 @@ pub fn encode_with_stats(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>
 }
 
 /// Encodes `h` to any writer. The hierarchy's links are checked first; positions must be finite.
-/// Level `k + 1` is stored in the canonical order of spec §5.7.
+/// Level `k + 1` is stored in the order of its decoded level (spec §5.4, §5.7, §5.9).
 pub fn encode_to(w: &mut impl Write, h: &Hierarchy, opts: &EncodeOptions) -> Result<(), EncodeError> {
     w.write_all(&encode(h, opts)?)?;
     Ok(())

@@ -144,7 +144,7 @@ pub enum EncodeError {
         /// The vertex.
         vertex: usize,
     },
-    /// A quantized coordinate falls outside the grid range of spec §3.3.
+    /// A quantized coordinate falls outside the grid range of spec §1.7.
     #[error("level {level}: vertex {vertex} lies outside the quantization grid (|q| > 2^28 steps); use a coarser step")]
     OutOfGrid {
         /// The level.

@@ -1,6 +1,6 @@
 //! The level encoder, the inverse of `level_decode`: it picks the mode (§4.1), puts the level in
-//! the canonical order of spec §5.7 (the order the decoder produces), predicts every corner, and
-//! writes the streams: each mode's names and corners in `crate::topology`, the geometry in
+//! the order of its decoded level (spec §5.4, §5.7, §5.9: the order the decoder produces),
+//! predicts every corner, and writes the streams: each mode's names and corners in `crate::topology`, the geometry in
 //! `crate::geometry::residuals`. Deterministic: no hash-map iteration reaches the output.
 
 use crate::block::{BLOCK_FLAG_LATTICE, Mode, STREAM_COUNT, s};
@@ -75,8 +75,9 @@ fn face(offsets: &[u32], indices: &[u32], f: usize) -> std::ops::Range<usize> {
 }
 
 /// Encodes level `k` (`parent` is the canonical level `k - 1`, `None` for level 0): the mode
-/// (§4.1), the canonical face order (§5.7), every corner's prediction, the names, splits and
-/// corners of the mode (§5.5, §5.6, §5.9), the face streams (§5.3, §5.4), then the geometry (§6).
+/// (§4.1), the decoded level's face order (§5.3, §5.4), every corner's prediction, the names,
+/// splits and corners of the mode (§5.5, §5.6, §5.9), the face streams (§5.3, §5.4), then the
+/// geometry (§6).
 pub fn encode_level(
     k: u32,
     input: &InputLevel<'_>,
@@ -142,15 +143,16 @@ fn has_valid_lattice(k: u32, input: &InputLevel<'_>) -> Result<bool, EncodeError
     Ok(has_lattice)
 }
 
-/// The canonical face order (§5.7): subfaces by (parent, quadrant), then created faces (by slot
-/// key in lattice levels); as `order[new] = old` and `face_new[old] = new`. Subfaces must be quads.
+/// The decoded level's face order (§5.4 step 3, §5.3 Streams): subfaces by (parent, quadrant),
+/// then created faces (by Morton slot key in lattice levels); as `order[new] = old` and
+/// `face_new[old] = new`. Subfaces must be quads.
 fn face_order(
     k: u32,
     input: &InputLevel<'_>,
     lattice_plan: Option<&LatticePlan>,
 ) -> Result<(Vec<u32>, Vec<u32>), EncodeError> {
     let nf = input.parents.len();
-    // Face order (§5.7): subfaces by (parent, quadrant), then created faces.
+    // Face order (§5.3, §5.4): subfaces by (parent, quadrant), then created faces.
     let mut order: Vec<u32> = (0..nf as u32).collect();
     let created_key = |f: usize| -> u64 {
         match lattice_plan {

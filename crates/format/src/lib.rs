@@ -26,8 +26,9 @@
 //! byte offset, and every allocation is checked against [`Limits`] first. Encoding is
 //! deterministic: the same hierarchy and options give the same bytes.
 //!
-//! Face and vertex order: level 0 keeps the input order; finer levels are stored in the canonical
-//! order of spec §5.7 (subfaces by parent and quadrant, then created faces; vertices by name). Use
+//! Face and vertex order: level 0 keeps the input order; finer levels are stored in the order
+//! of their decoded level (spec §5.4, §5.7, §5.9, and Appendix A "Order": subfaces by parent and
+//! quadrant, then created faces; vertices by name in modes 1 and 2, by first use in mode 3). Use
 //! [`canonical`] to put a hierarchy in that order (positions unchanged), for comparisons.
 //!
 //! # Design (why the format looks like this)
@@ -67,17 +68,17 @@
 //! * `container` — §3 File structure: header, level table, metadata, preamble checksum.
 //! * `block` — §4 Level block: block header, streams, the counts the streams can hold.
 //! * `topology` — §5 Topology: `base` (mode 0, §5.1), `generic` (mode 1, §5.4), `lattice`
-//!   (mode 2, §5.3), `first_use` (mode 3, §5.9), `names` (§5.5, §5.6), `slots` (lattice keys,
-//!   §5.3, §5.8).
+//!   (lattice faces of modes 2 and 3, §5.3; mode 2's lattice corners, §5.7), `first_use` (mode 3,
+//!   §5.9), `names` (§5.5, §5.6), `slots` (lattice keys, §5.3, §5.8).
 //! * `geometry` — §6 Geometry: `predict` (modes 0-2, §6.2-§6.7), `fixed` (mode 3, §6.8),
 //!   `residuals` (the stream, §6.1).
 //! * `decoder`, `encoder` — §7 and §8: whole files, level after level; `level_decode` and
 //!   `level_encode` take one level block through §4-§6 in order. The encoder of a level writes all
-//!   streams of its mode in one pass over its faces (the modes share its canonical ordering of
-//!   §5.7), so it stays one module beside the decoder's per-mode files.
+//!   streams of its mode in one pass over its faces (the modes share the face order of §5.3 and
+//!   §5.4), so it stays one module beside the decoder's per-mode files.
 //! * `bytes` — §1 Conventions: varints, zigzag, byte planes, the bounds-checked reader.
 //! * `limits`, `error` — §7.2 Limits and §7.3 Errors.
-//! * `placement` — §8 advice: moving vertices onto their prediction lines.
+//! * `placement` — Appendix A "Line placement": moving vertices onto their prediction lines.
 
 mod block;
 mod bytes;
@@ -139,7 +140,7 @@ pub struct EncodeOptions {
     pub metadata: Metadata,
     /// Format version to write, 2 or 3 (default [`FORMAT_VERSION`], 3). Version 3 codes lattice
     /// refinements in mode 3 (spec §5.9, §6.8: vertices numbered by first use, integer geometry
-    /// from the parent), which decodes faster; version 2 codes them in mode 2 (§5.3, §6.2-§6.6).
+    /// from the parent), which decodes faster; version 2 codes them in mode 2 (§5.7, §6.2-§6.6).
     pub version: u16,
 }
 
@@ -204,9 +205,9 @@ pub struct LevelStats {
     pub geometry: usize,
 }
 
-/// `h` in the canonical order of spec §5.7 — the order [`decode`] returns when `h` is encoded
-/// with `opts` — with the input positions (not quantized). Encoding the result with `opts` gives
-/// the same bytes as encoding `h`.
+/// `h` in the order of its decoded levels (spec §5.1, §5.4, §5.7, §5.9; Appendix A "Order") — the
+/// order [`decode`] returns when `h` is encoded with `opts` — with the input positions (not
+/// quantized). Encoding the result with `opts` gives the same bytes as encoding `h`.
 pub fn canonical(h: &Hierarchy, opts: &EncodeOptions) -> Result<Hierarchy, EncodeError> {
     let mut out = Hierarchy { levels: Vec::with_capacity(h.levels.len()), cube: h.cube };
     encoder::encode_levels(h, opts, |enc| {

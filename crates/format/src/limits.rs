@@ -5,7 +5,7 @@
 /// ([`crate::decode`], [`crate::read_info`], [`crate::read_path`] through [`crate::DecodeOptions`]).
 ///
 /// Every declared count is first checked against what the file's bytes can hold (a face, a
-/// corner, a listed vertex each take at least one byte of some stream; spec §4.1), then against
+/// corner, a listed vertex each take at least one byte of some stream; spec §4.2, §5), then against
 /// these limits. What costs no bytes (vertices whose residuals are all zero, a zstd frame of one
 /// repeated byte) is bounded by these limits alone, so they bound the memory a file can claim:
 /// decoding takes about 250 bytes per vertex of the largest level (working arrays and the

@@ -1,10 +1,11 @@
-//! Line placement (spec §6.6 Line geometry, §8 Encoder requirements and advice): the encoder side
+//! Line placement (spec §6.6 Line geometry, Appendix A "Line placement"): the encoder side
 //! of one-number geometry, a co-design with reconstruction. A refinement level's vertex with a
 //! parent context has a *prediction line* that the decoder derives from the decoded parent alone
-//! (the base prediction of §6.3 / §6.4 and the parent face's normal). A vertex that lies on its line costs one number (its parameter along the line) instead
-//! of three residuals. [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines,
-//! coarse to fine, each along its own tangent plane, so that the surface barely moves and the file
-//! still stores exactly what the caller holds (every moved vertex sits on a grid point).
+//! (the base prediction of §6.3 / §6.4 and the parent face's normal). A vertex that lies on its
+//! line costs one number (its parameter along the line) instead of three residuals.
+//! [`place_on_prediction_lines`] moves a hierarchy's vertices onto their lines, coarse to fine,
+//! each along its own tangent plane, so that the surface barely moves and the file still stores
+//! exactly what the caller holds (every moved vertex sits on a grid point).
 
 use octowrap_mesh::{Aabb, DVec3, FaceList, Hierarchy, Mesh};
 
@@ -55,8 +56,9 @@ impl LinePlacement {
     }
 }
 
-/// Line points per voxel edge of the vertex's level, at least (spec §6.6 `line_shift`): the height
-/// error is then at most about 1/32 of a voxel (RMS 1/55), far below the reconstruction's own.
+/// Line points per voxel edge of the vertex's level, at least (spec §6.6 `line_shift`, Appendix A):
+/// the height error is then at most about 1/32 of a voxel (RMS 1/55), far below the
+/// reconstruction's own.
 const LINE_POINTS_PER_VOXEL: f64 = 16.0;
 
 /// The smallest cosine between a vertex's line and its tangent plane's normal for which the
@@ -236,7 +238,7 @@ struct Candidate {
     cost: f64,
 }
 
-/// Places one level under lattice predictor `predictor`, in coding order (spec §6.2): every
+/// Places one level under lattice predictor `predictor`, in coding order (spec §6.2, §6.8): every
 /// vertex's line comes from the decoded parent (pass A) or from the level's vertices placed before
 /// it (pass B), so the geometry pass itself drives the placement.
 #[allow(clippy::too_many_arguments)]

@@ -262,6 +262,9 @@ fn invalid_set() -> Vec<Invalid> {
     fix_preamble_checksum(&mut b);
     out.push(("level_gap.mrq", "§3.2", "invalid", "level 1 does not start where level 0 ends", b));
     let mut b = base.clone();
+    b.push(0);
+    out.push(("bytes_after_last_level.mrq", "§3.5", "invalid", "one zero byte follows the last level", b));
+    let mut b = base.clone();
     let off = 112 + 48 + 32; // level 1's vertex_count
     let v = u32::from_le_bytes(b[off..off + 4].try_into().unwrap()) + 1;
     b[off..off + 4].copy_from_slice(&v.to_le_bytes());

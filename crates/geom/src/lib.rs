@@ -6,7 +6,8 @@
 //!   they define (principal component analysis), the tool of the paper's vertex mapping (§3.6).
 //! * [`sym_eigen3`]: eigen-decomposition of a symmetric 3x3 matrix (cyclic Jacobi), since glam has none.
 //! * [`morton`]: 3D Morton (Z-order) codes, 21 bits per axis, for octree cells.
-//! * [`SplitMix64`]: a deterministic pseudo-random generator for tests, fixtures and benchmarks.
+//! * `SplitMix64` (feature `testing`): a deterministic pseudo-random generator for tests, fixtures
+//!   and benchmarks.
 //!
 //! # Precision
 //! World coordinates are `f64` ([`glam::DVec3`]) everywhere in octowrap's data model, so that
@@ -21,6 +22,7 @@ mod aabb;
 mod distance;
 mod eigen;
 mod plane;
+#[cfg(any(test, feature = "testing"))]
 mod random;
 
 pub use aabb::Aabb;
@@ -29,4 +31,5 @@ pub use eigen::{SymEigen3, sym_eigen3};
 pub use glam;
 pub use glam::{DMat3, DVec3, Vec3};
 pub use plane::{Moments, Plane};
+#[cfg(any(test, feature = "testing"))]
 pub use random::SplitMix64;

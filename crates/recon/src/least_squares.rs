@@ -29,7 +29,7 @@
 //!
 //! Each pass lowers the energy, so the points-to-mesh distance falls; the regulariser keeps
 //! vertices without points in place and the system well posed. Measured on the bunny (see
-//! `tools/bench/RESULTS.md`), the points-to-mesh RMS of levels 1-7 falls 1.5-4.9x.
+//! `docs/decisions.md`, "Least-squares fit"), the points-to-mesh RMS of levels 1-7 falls 1.5-4.9x.
 //!
 //! Determinism: the projections are independent per point, every sum runs in a fixed order
 //! (faces' sums in point order, each vertex's in its face-corner order, dot products in fixed

@@ -79,9 +79,9 @@
 //!   instead onto a weighted height-field quadric of `W`'s points within one edge (Gaussian
 //!   weights of half an edge). After the least-squares fit below, the plane is as close to the
 //!   points as the quadric (within 1-3 %, better or worse by level) and the whole reconstruction
-//!   4-6 % cheaper (`tools/bench/RESULTS.md`).
+//!   4-6 % cheaper (`docs/decisions.md`, "Vertex mapping").
 //! * **Relaxation (§3.6.1)**: Laplacian to the one-ring centroid, then re-projection on the
-//!   vertex's own plane. The paper relaxes every level; measured (`tools/bench/RESULTS.md`), it
+//!   vertex's own plane. The paper relaxes every level; measured (`docs/decisions.md`), it
 //!   lowers the bunny's points-to-mesh error by up to 19 % from level 4 on but raises it by up to
 //!   2x at levels 1-2 (the centroid of a coarse one-ring lies far inside), and is neutral on the
 //!   dragon past level 3. So the default is the paper's 4 passes from level 4 on
@@ -93,7 +93,7 @@
 //!   squares with the connectivity fixed ([`ReconOptions::fit_passes`] passes of projection and
 //!   a sparse solve, after Hoppe et al.'s mesh optimisation), with a weak pull towards the mapped
 //!   positions and a weak membrane that keeps thinly sampled vertices with their neighbours.
-//!   Measured (`tools/bench/RESULTS.md`): on the bunny the points-to-mesh RMS of levels 1-7 is
+//!   Measured (`docs/decisions.md`, "Least-squares fit"): on the bunny the points-to-mesh RMS of levels 1-7 is
 //!   .0223 .0142 .0060 .0021 .00080 .00024 .00008 with the fit and .0337 .0222 .0113 .0057 .0023
 //!   .00093 .00039 without (the paper's Table 3: .0259 .0095 .0036 .0011 .0004 .00014 for levels
 //!   1-6), 1.6-3.3x closer per level, with the vertices as near the points as the mapping puts
@@ -131,7 +131,7 @@
 //!   and the Rabbit have no dense region past the limit at 4. Below about 5 points per child a
 //!   region that counts as dense can break into sampling holes (a sphere sampled thinly on one
 //!   half: 3 loops at `tau` 3-4, none at 5). Off by default because on a 4.3 M-point scan it
-//!   wraps levels 9-10 (`tools/bench/RESULTS.md`).
+//!   wraps levels 9-10 (`docs/decisions.md`, "Trusted level per region").
 //!
 //! # Coordinates and determinism
 //! All stages work in a local frame, the root cube scaled to `[0, 1)^3` (points in `f32`, fits in
@@ -208,7 +208,7 @@ pub struct ReconOptions {
     /// The coarsest level relaxed. Default 4: measured on the bunny, 4 passes cut the
     /// points-to-mesh error by 3-19 % at levels 4-7 but raise it by up to 2x at levels 1-2, where
     /// the one-ring centroid of a coarse hull lies far inside the surface; on the dragon they are
-    /// neutral from level 3 on (`tools/bench/RESULTS.md`).
+    /// neutral from level 3 on (`docs/decisions.md`, "Relaxation from level 4").
     pub relax_from_level: u32,
     /// Padding of the root cube, as a fraction of the points' longest extent on each side.
     /// Default 0.01.
@@ -225,7 +225,7 @@ pub struct ReconOptions {
     /// within one voxel edge (Gaussian weights of half an edge, in the weighted plane's frame;
     /// the paper's plane under 10 points) instead of the paper's plane (§3.6). Default false:
     /// with the least-squares fit ([`ReconOptions::fit_passes`]) the plane is as close to the
-    /// points and cheaper (see `tools/bench/RESULTS.md`).
+    /// points and cheaper (`docs/decisions.md`, "Vertex mapping").
     pub quadric_mapping: bool,
     /// Fill one-voxel gaps of sparsely sampled sheets before wrapping a level (from level 2 on):
     /// an empty voxel on the surface with at least 3 of its 4 in-plane neighbours occupied by at
@@ -239,7 +239,7 @@ pub struct ReconOptions {
     /// its 26 neighbours, and everything below it), and its region is subdivided inside the
     /// wrapped level. Default 4: at 10 nothing past the limit is dense on the bunny, the Rabbit
     /// or the dragon; at 3 the dragon's level 8 breaks into 309 boundary loops, 69 at 4
-    /// (`tools/bench/RESULTS.md`).
+    /// (`docs/decisions.md`, "Trusted level per region").
     pub region_density: f64,
     /// Levels past the global density limit ([`ReconOptions::min_median_points`]) that are still
     /// wrapped where some region is dense enough ([`ReconOptions::region_density`]); deeper

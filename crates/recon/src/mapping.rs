@@ -29,7 +29,8 @@
 //! deep subdivided levels would cost about 50 points per vertex (the 4.3 M-point dragon at level
 //! 10). Against the points within `l`, then `2 l`, of the vertex (a ball, point by point), the
 //! box moves the bunny's points-to-mesh RMS of the subdivided levels by -20 % to +13 % (finest
-//! levels better, the first subdivided level worse; `tools/bench/RESULTS.md`).
+//! levels better, the first subdivided level worse; `docs/decisions.md`, "Subdivided levels mapped
+//! from per-voxel moments").
 
 use octowrap_geom::glam::Vec3;
 use octowrap_geom::{DVec3, Moments, morton};

@@ -34,8 +34,9 @@
 //!    curls (no flat plane fits there): without it the wrapping enters the hole and takes the
 //!    rim cells' inner sides too, a lip that the vertex mapping lays onto the outer wall (the
 //!    bunny's open bottom: 116 and 254 intersecting face pairs at levels 5 and 6 without leaning,
-//!    12 and 13 with it; `tools/bench/RESULTS.md`). A thin part with two sides near the surface (a strut beside
-//!    the dragon's hind leg) has thicker cells and keeps every slot.
+//!    12 and 13 with it; `docs/decisions.md`, "Leaning rim voxels"). A thin part with two sides
+//!    near the surface (a strut beside the dragon's hind leg) has thicker cells and keeps every
+//!    slot.
 //!
 //! A closed surface keeps every outer face (no outward face looks inwards), an open sheet keeps
 //! one side only, so holes stay holes, and a one-voxel protrusion (no reliable plane) is wrapped.

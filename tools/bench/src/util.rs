@@ -6,10 +6,10 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// The shared data folder, if present.
+/// The shared data folder ([`octowrap_testdata::data_root`]), if present. Silent when absent: each
+/// bench area says what it skips.
 pub fn shared_data() -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let dir = std::env::var_os("OCTOWRAP_DATA").map_or_else(|| root.join("../shared/data"), PathBuf::from);
+    let dir = octowrap_testdata::data_root();
     dir.is_dir().then_some(dir)
 }
 

@@ -10,7 +10,7 @@ pub use crate::geometry::lines::Line;
 use crate::topology::slots as lattice;
 use crate::topology::{NO_PARENT, NO_POS, NONE, Parent};
 
-/// The largest grid coordinate magnitude (spec §3.5).
+/// The largest grid coordinate magnitude: the grid range of spec §1.7.
 pub const GRID_LIMIT: i64 = 1 << 28;
 
 /// `a / b` rounded to the nearest integer, halves upwards (`b > 0`).
@@ -246,9 +246,9 @@ fn contexts_and_degrees(
     missing
 }
 
-/// Every vertex's neighbours (§6.5): `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next vertex of
-/// the `j`-th incident corner; vertex v's corners are `j` in `end[v - 1] .. end[v]` afterwards, in
-/// corner order (`end` holds the corner counts on entry).
+/// Every vertex's neighbour entries (§6.2): `nbr[2 j]`, `nbr[2 j + 1]` are the previous and next
+/// vertex of the `j`-th incident corner; vertex v's corners are `j` in `end[v - 1] .. end[v]`
+/// afterwards, in corner order (`end` holds the corner counts on entry).
 fn neighbours(topo: &Topo<'_>, end: &mut [u32], nbr: &mut [u32]) {
     let (offsets, indices) = (topo.offsets, topo.indices);
     for i in 0..end.len() - 1 {
@@ -432,8 +432,9 @@ fn bias_sum(near: &[u32], bias: &[[i32; 8]], max_abs: i64) -> [i64; 6] {
     }
 }
 
-/// Pass B (§6.5): the vertices without a context, in index order, each predicted from its
-/// neighbours decoded so far (relative to their lattice points in lattice mode), with its line.
+/// Pass B (§6.2, with the neighbour predictor of §6.5): the vertices without a context, in index
+/// order, each predicted from its neighbours decoded so far (relative to their lattice points in
+/// lattice mode), with its line.
 fn pass_b<E>(
     topo: &Topo<'_>,
     q: &mut [[i64; 3]],

@@ -1,8 +1,8 @@
-//! The geometry stream's layout (spec §6.1 Stream, §6.6 Line geometry): exact positions as byte
-//! planes of binary64 bit patterns; grid residuals as three byte-plane blocks, preceded with
-//! `LINES` by the bitmap of line vertices and their parameters. Both directions; the encoder
-//! computes the residuals with the prediction passes and keeps the predictor, layout and line
-//! spacing that compress best.
+//! The geometry stream's layout (spec §6.1 The `geometry` stream, §6.6 Line geometry): exact
+//! positions as byte planes of binary64 bit patterns; grid residuals as three byte-plane blocks,
+//! preceded with `LINES` by the bitmap of line vertices and their parameters. Both directions; the
+//! encoder computes the residuals with the prediction passes and keeps the predictor, layout and
+//! line spacing that compress best.
 
 use crate::block::{MAX_LINE_SHIFT, Mode, PREDICTOR_LINES, s};
 use crate::bytes::{Planes, Reader, put_planes, zigzag};

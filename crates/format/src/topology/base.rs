@@ -1,4 +1,4 @@
-//! Mode 0, the base level (spec §5.1 Base mode): face sizes and explicit corner indices, every
+//! Mode 0, the base level (spec §5.1 Mode 0: base level): face sizes and explicit corner indices, every
 //! face created, faces and vertices in the encoder's order.
 
 use crate::block::{Mode, s};

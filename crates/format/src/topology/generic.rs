@@ -1,4 +1,4 @@
-//! Mode 1, generic refinement (spec §5.4 Generic refinement): the canonical subdivision of the
+//! Mode 1, generic refinement (spec §5.4 Mode 1: generic refinement): the canonical subdivision of the
 //! parent (a quad per parent face corner, named by parent vertex, edge and face), children kept by
 //! child masks, created faces explicit.
 

@@ -1,4 +1,4 @@
-//! Mode 2, lattice refinement (spec §5.3 Lattice refinement): faces on octree slots, children
+//! Lattice faces (spec §5.3) and mode 2, lattice refinement (§5.7): faces on octree slots, children
 //! of parent faces by child masks and depth bits, created faces by slot keys; corners predicted
 //! as lattice corner keys. Mode 3 (§5.9) reads the same face streams.
 
@@ -121,8 +121,8 @@ pub fn decode_faces(
     Ok(LatticeFaces { slots, parent_quads, name_bounds })
 }
 
-/// The lattice corner of every vertex of a mode 2 level (§5.5: vertices in name order, a split
-/// name's vertices together).
+/// The lattice corner of every vertex of a mode 2 level: its name read back as a corner key (§5.7
+/// step 4), vertices in name order, a split name's vertices together (§5.5).
 pub fn vertex_corners(k: u32, nv: usize, set: &NameSet<'_>) -> Vec<[u32; 3]> {
     let NameSet { names, count, nsplit, .. } = set;
     let keys = lattice::CornerKeys::new(k);

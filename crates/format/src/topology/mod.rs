@@ -1,9 +1,9 @@
 //! Topology of a level (spec §5): what the modes share. Rotation bytes (§5.2), the parent level
 //! as the next level's context (`Parent`), the edge numbering of the canonical subdivision (§5.4),
 //! and the sentinels of the plain per-face and per-corner arrays. One file per mode beside it:
-//! `base` (mode 0, §5.1), `generic` (mode 1, §5.4), `lattice` (mode 2, §5.3), `first_use`
-//! (mode 3, §5.9); `names` holds §5.5 and §5.6 (names, splits, corners: modes 1 and 2), `slots`
-//! the lattice keys of §5.3 and §5.8.
+//! `base` (mode 0, §5.1), `generic` (mode 1, §5.4), `lattice` (lattice faces of modes 2 and 3,
+//! §5.3; mode 2, §5.7), `first_use` (mode 3, §5.9); `names` holds §5.5 and §5.6 (names, splits,
+//! corners: modes 1 and 2), `slots` the lattice keys of §5.3 and §5.8.
 
 pub mod base;
 pub mod first_use;
@@ -35,7 +35,7 @@ pub const NONE: u32 = u32::MAX;
 /// "No canonical position" in per-corner position arrays.
 pub const NO_POS: u8 = u8::MAX;
 
-/// Canonical position of face corner `k` under rotation byte `rot` (spec §5.3).
+/// Canonical position of face corner `k` under rotation byte `rot` (spec §5.2).
 pub fn rotated(rot: u8, k: usize) -> usize {
     let r = usize::from(rot & 3);
     if rot & 4 == 0 { (r + k) % 4 } else { (r + 4 - k) % 4 }

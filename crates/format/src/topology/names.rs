@@ -387,7 +387,7 @@ fn name_set(vorder: &[u32], vname: &[u64], predicted: &[u64]) -> Vec<(u64, u32, 
 
 /// Encodes the name set, splits and corners of a mode 1 or 2 level (§5.5, §5.6): vertex names
 /// (lattice keys, or the subdivision name their corners predict, or fresh names after
-/// `name_base_free`), the canonical vertex order (§5.7), extra names, splits, choices, exceptions
+/// `name_base_free`), the vertex order by name (§5.5), extra names, splits, choices, exceptions
 /// and explicit corners. Returns the corners' canonical vertices and `vorder[new] = old`.
 #[allow(clippy::needless_range_loop)]
 pub fn encode(
@@ -399,7 +399,7 @@ pub fn encode(
     st: &mut Streams,
 ) -> (Vec<u32>, Vec<u32>) {
     let CornerPlan { vertex: corner_vertex, pred, pos, name_base_free, .. } = plan;
-    // Vertex names (§5.5) and canonical vertex order (§5.7).
+    // Vertex names (§5.5) and vertex order by name (§5.5).
     let mut vname = vec![u64::MAX; nv];
     let mut first_seen = vec![u64::MAX; nv];
     if let Some(corners) = input_corners.filter(|_| mode == Mode::Lattice) {

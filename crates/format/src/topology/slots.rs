@@ -1,4 +1,4 @@
-//! Octree lattice keys of spec §5.3 (Lattice refinement) and §5.8 (Raw lattice): slot keys, corner
+//! Octree lattice keys of spec §5.3 (Lattice faces) and §5.8 (Raw lattice): slot keys, corner
 //! keys, the child slot under a parent quadrant, and the raw lattice stream in both directions. A
 //! slot's canonical corner order is `octowrap_geom::cell`'s.
 

@@ -25,6 +25,11 @@ pub fn decode(bytes: &[u8]) -> Result<File> {
         let level = block::decode_level(k, &raw, e, ctx, levels.last())?;
         levels.push(level);
     }
+    // §3.5 and §7.1 step 7: the file ends with the last level's stored bytes.
+    let end = pre.entries.last().map_or(0, |e| e.offset + e.stored_size);
+    if end != bytes.len() as u64 {
+        return primitives::invalid(format!("bytes follow the last level (offset {end})"));
+    }
     // §6.7.
     let positions = levels
         .iter()
