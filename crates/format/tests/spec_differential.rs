@@ -27,7 +27,9 @@ use std::path::Path;
 use octowrap_format::fuzzing::{payloads, reseal};
 use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, polygon_mesh, without_lattice};
 use octowrap_format::tamper::fix_preamble_checksum;
-use octowrap_format::{DecodeError as Error, DecodeOptions, EncodeOptions, Quantization, encode, place_on_prediction_lines};
+use octowrap_format::{
+    DecodeError as Error, DecodeOptions, EncodeOptions, Quantization, encode, place_on_prediction_lines,
+};
 use octowrap_mesh::Hierarchy;
 
 /// A hierarchy of every kind the seed selects: lattice or not, edited heavily or lightly, placed
