@@ -94,6 +94,34 @@ fn broken_files_get_clear_errors() {
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
 
+/// `reconstruct -o X.mrq` quantizes on a grid tied to the cube with a 64th of the finest voxel as
+/// its step (finest level 5: 2^11 steps across the cube); --bits overrides it.
+#[test]
+fn reconstructed_mrq_grid_follows_the_finest_voxel() {
+    let dir = tempfile::tempdir().unwrap();
+    let kitten = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/points/kitten.xyz");
+    for (level, extra, bits) in [("5", None, 11), ("3", None, 9), ("5", Some("12"), 12)] {
+        let out = dir.path().join(format!("k{level}-{bits}.mrq"));
+        let mut args = vec!["reconstruct", kitten.to_str().unwrap(), "-o", out.to_str().unwrap(), "--level", level];
+        if let Some(b) = extra {
+            args.extend(["--bits", b]);
+        }
+        let o = octowrap(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let info = octowrap(&["info", "--json", out.to_str().unwrap()]);
+        let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+        assert_eq!(
+            (v["grid"]["bits"].as_u64(), v["grid"]["tied_to_cube"].as_bool()),
+            (Some(bits), Some(true)),
+            "{args:?}"
+        );
+        let (lo, hi) = (&v["cube"][0], &v["cube"][1]);
+        let edge = (0..3).map(|a| hi[a].as_f64().unwrap() - lo[a].as_f64().unwrap()).fold(0.0, f64::max);
+        let step = v["grid"]["step"].as_f64().unwrap();
+        assert!((step * f64::from(1u32 << bits) / edge - 1.0).abs() < 1e-12, "step {step}, cube edge {edge}");
+    }
+}
+
 /// `reconstruct -o X.mrq` places vertices on their prediction lines (spec §6.6): the file is
 /// smaller than with --keep-positions, and --all-levels writes exactly the positions it holds.
 #[test]

@@ -4,7 +4,7 @@
 
 use std::io::Write;
 
-use octowrap_mesh::{Aabb, DVec3, FaceOrigin, Hierarchy};
+use octowrap_mesh::{Aabb, DVec3, FaceOrigin, Hierarchy, Level};
 use xxhash_rust::xxh3::xxh3_64;
 
 use crate::container::{
@@ -36,6 +36,19 @@ impl Grid {
         ((p - self.origin) / self.step).round()
     }
 
+    /// The grid tied to `cube` (spec §3.1 `TIED`): origin at its smallest corner, `2^bits` steps
+    /// across its largest edge; `None` for an empty or flat cube. `bits` in `1..=MAX_GRID_BITS`.
+    pub fn tied(cube: Aabb, bits: u32) -> Option<Self> {
+        let edge = cube.size().max_element();
+        (!cube.is_empty() && edge > 0.0).then(|| Self {
+            exact: false,
+            tied: true,
+            bits,
+            origin: cube.min,
+            step: edge / f64::from(1u32 << bits),
+        })
+    }
+
     /// The world position of grid point `q` (spec §6.7), as the decoder computes it.
     pub fn position(&self, q: [i64; 3]) -> DVec3 {
         self.origin + DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64) * self.step
@@ -59,9 +72,8 @@ pub fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> 
             if !(1..=MAX_GRID_BITS).contains(&bits) {
                 return Err(EncodeError::Options(format!("quantization bits must be 1..={MAX_GRID_BITS}, got {bits}")));
             }
-            if let Some(c) = h.cube.filter(|c| !c.is_empty() && c.size().max_element() > 0.0) {
-                let edge = c.size().max_element();
-                Ok(Grid { exact: false, tied: true, bits, origin: c.min, step: edge / f64::from(1u32 << bits) })
+            if let Some(g) = h.cube.and_then(|c| Grid::tied(c, bits)) {
+                Ok(g)
             } else {
                 let b = bounds();
                 let ext = b.size().max_element();
@@ -149,7 +161,16 @@ pub fn input_level<'a>(
     grid: &Grid,
     parent_face_new: &[u32],
 ) -> Result<InputLevel<'a>, EncodeError> {
-    let l = &h.levels[k];
+    level_input(&h.levels[k], k, grid, parent_face_new)
+}
+
+/// [`input_level`] of a level `l` standing at index `k` of its hierarchy.
+pub fn level_input<'a>(
+    l: &'a Level,
+    k: usize,
+    grid: &Grid,
+    parent_face_new: &[u32],
+) -> Result<InputLevel<'a>, EncodeError> {
     let mesh = &l.mesh;
     mesh.check_indices().map_err(|source| EncodeError::Faces { level: k, source })?;
     if mesh.vertices.len() > u32::MAX as usize / 2 || mesh.faces.corner_count() > u32::MAX as usize / 2 {

@@ -107,6 +107,8 @@ pub use container::{FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo
 pub use decoder::{decode, decode_bytes, read_info};
 pub use encoder::{encode, encode_to, encode_with_stats};
 pub use error::{DecodeError, EncodeError, Where};
+pub use geometry::decoder_lines::{DecodedLevels, DecoderLine, GridSpec, LineOrigin};
+pub use geometry::fixed::FixedLine;
 pub use limits::Limits;
 pub use placement::{LinePlacement, place_on_prediction_lines};
 

@@ -13,6 +13,7 @@ use crate::EncodeOptions;
 use crate::block::{LINE_PARAM_LIMIT, MAX_LINE_SHIFT, Mode, PREDICTOR_BILINEAR, PREDICTOR_NORMAL};
 use crate::encoder::{Grid, choose_grid, input_level};
 use crate::error::EncodeError;
+use crate::geometry::decoder_lines::{fast_topo, level_contexts};
 use crate::geometry::fixed::{self as fast, FixedLine};
 use crate::geometry::predict::{GRID_LIMIT, GeometryScratch, Line, Topo, geometry_pass};
 use crate::level_decode::PlainLevel;
@@ -342,20 +343,8 @@ fn place_level_fast(
 ) -> Candidate {
     let level = &enc.level;
     let nv = level.q.len();
-    let mut contexts = fast::Contexts::default();
-    fast::contexts(&level.indices, &level.parents, &level.quadrants, &enc.pos, &enc.parent_quads, nv, &mut contexts);
-    let topo = fast::FastTopo {
-        level: k,
-        bits,
-        indices: &level.indices,
-        slots: level.slots.as_deref().unwrap_or_default(),
-        vertex_corners: level.corners.as_deref().unwrap_or_default(),
-        contexts: &contexts,
-        parent_quads: &enc.parent_quads,
-        lines: true,
-        line_shift,
-        predictor,
-    };
+    let contexts = level_contexts(enc);
+    let topo = fast_topo(enc, &contexts, (k, bits, predictor, line_shift));
     let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
     let mut q = vec![[0i64; 3]; nv];
     let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
