@@ -814,7 +814,7 @@ pub(crate) fn run(
         // rank found by selection), so only the candidates below that are sorted, the rest only
         // when nothing below was valid.
         let goal = (tris.len() - target).div_ceil(2);
-        let mut limit = if goal < keys.len() { cost_at_rank(&keys, goal) * 1.5 } else { f64::INFINITY }.min(max_cost);
+        let mut limit = if goal < keys.len() { cost_at_rank(keys, goal) * 1.5 } else { f64::INFINITY }.min(max_cost);
         let mut order: Vec<(u64, u32, u32)> =
             keys.par_iter().filter(|e| f64::from_bits(e.0) <= limit).copied().collect();
         let mut live = tris.len();
