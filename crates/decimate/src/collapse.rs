@@ -496,9 +496,6 @@ const DEAD: u32 = u32::MAX;
 /// A candidate's sort key: (error bits, kept, removed).
 type Key = (u64, u32, u32);
 
-/// Sort key of a candidate over the error bound.
-const OVER: u64 = u64::MAX;
-
 /// What collapses change: the data of one block (its vertices from `vbase` on, and its triangles
 /// from `tbase` on), or of the whole mesh (both bases 0). Vertices and triangles keep their
 /// numbers in the whole mesh.
@@ -797,19 +794,27 @@ pub(crate) fn run(
     let mut mark = vec![0u32; n];
     let mut stamp = 0u32;
     let (mut reached, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
+    // Every candidate of the pass, over `max_cost` or not.
+    let mut all: Vec<Key> = Vec::new();
     let stop = loop {
         if tris.len() <= target {
             break Stop::TargetReached;
         }
         passes += 1;
         let pass = passes as u32;
-        let (keys, over_bound) =
-            edge_keys(&Whole { pos: &pos, quadrics: &quadrics, tris: &tris }, &kind, &adj, max_cost);
+        all = edge_keys(
+            &Whole { pos: &pos, quadrics: &quadrics, tris: &tris },
+            &kind,
+            &adj,
+            (pass > 1).then_some((&all[..], &touched[..], pass - 1)),
+        );
+        let (bounded, over_bound) = within(&all, max_cost);
+        let keys = if over_bound { &bounded } else { &all };
         // The pass stops at 1.5 times the error of the candidate that would reach the target (its
         // rank found by selection), so only the candidates below that are sorted, the rest only
         // when nothing below was valid.
         let goal = (tris.len() - target).div_ceil(2);
-        let mut limit = if goal < keys.len() { cost_at_rank(&keys, goal) * 1.5 } else { f64::INFINITY }.min(max_cost);
+        let mut limit = if goal < keys.len() { cost_at_rank(keys, goal) * 1.5 } else { f64::INFINITY }.min(max_cost);
         let mut order: Vec<(u64, u32, u32)> =
             keys.par_iter().filter(|e| f64::from_bits(e.0) <= limit).copied().collect();
         let mut live = tris.len();
@@ -935,26 +940,39 @@ fn resolve(rep: &mut [u32]) {
     }
 }
 
-/// One sort key per edge that makes a candidate: (error bits, kept, removed), and whether some
-/// candidate was over `max_cost` (those are left out). Errors are >= 0, so their bit patterns
-/// sort like the numbers, and (kept, removed) is unique per edge: a total order, the same
-/// whatever the thread count.
-fn edge_keys(s: &Whole<'_>, kind: &[Kind], adj: &Csr, max_cost: f64) -> (Vec<(u64, u32, u32)>, bool) {
-    let mut keys: Vec<(u64, u32, u32)> = s
-        .tris
-        .par_iter()
-        .flat_map_iter(|tri| {
-            (0..3).filter_map(move |k| {
-                let c = edge_candidate(s, kind, adj, tri[k], tri[(k + 1) % 3], true)?;
-                Some(if c.cost <= max_cost { (c.cost.to_bits(), c.keep, c.remove) } else { (OVER, 0, 0) })
-            })
+/// One sort key per edge that makes a candidate: (error bits, kept, removed), over `max_cost`
+/// or not. Errors are >= 0, so their bit patterns sort like the numbers, and (kept, removed) is
+/// unique per edge: a total order, the same whatever the thread count.
+///
+/// A candidate depends only on its two vertices (positions, quadrics, kinds) and on whether its
+/// edge is a boundary edge, which changes only when one of them is kept or removed. With `prev`
+/// (the previous pass's keys and the vertices it touched, `touched[v] == last`), the keys of
+/// edges with both vertices untouched are taken from it and only the others are made again: the
+/// same set as making them all.
+fn edge_keys(s: &Whole<'_>, kind: &[Kind], adj: &Csr, prev: Option<(&[Key], &[u32], u32)>) -> Vec<Key> {
+    let changed = |v: u32| prev.is_none_or(|(_, touched, last)| touched[v as usize] == last);
+    let mut keys: Vec<Key> = match prev {
+        Some((old, ..)) => old.par_iter().filter(|e| !changed(e.1) && !changed(e.2)).copied().collect(),
+        None => Vec::new(),
+    };
+    keys.par_extend(s.tris.par_iter().flat_map_iter(|tri| {
+        (0..3).filter_map(move |k| {
+            let (i, j) = (tri[k], tri[(k + 1) % 3]);
+            if !changed(i) && !changed(j) {
+                return None;
+            }
+            let c = edge_candidate(s, kind, adj, i, j, true)?;
+            Some((c.cost.to_bits(), c.keep, c.remove))
         })
-        .collect();
-    let over = keys.par_iter().any(|e| e.0 == OVER);
-    if over {
-        keys.retain(|e| e.0 != OVER);
-    }
-    (keys, over)
+    }));
+    keys
+}
+
+/// The keys of `all` within `max_cost`, and whether some key was over it.
+fn within(all: &[Key], max_cost: f64) -> (Vec<Key>, bool) {
+    let bound = max_cost.to_bits();
+    let over = max_cost < f64::INFINITY && all.par_iter().any(|e| e.0 > bound);
+    (if over { all.par_iter().filter(|e| e.0 <= bound).copied().collect() } else { Vec::new() }, over)
 }
 
 /// The candidate of edge `i-j`. With `half_edge`, `i -> j` is a half-edge of the mesh and the
