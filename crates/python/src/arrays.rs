@@ -40,7 +40,7 @@ fn checked<'py>(
     };
     let shape = shape_text(arr.shape());
     let dtype = arr.dtype();
-    if arr.ndim() != ndim || width.is_some_and(|w| shape[ndim - 1] != w) {
+    if arr.ndim() != ndim || width.is_some_and(|w| arr.shape()[ndim - 1] != w) {
         return Err(bad(format!("{name} must be an array {expect}, found shape {shape} of {dtype}")));
     }
     if !arr.is_c_contiguous() {
@@ -163,7 +163,9 @@ fn faces_csr(offsets: &Bound<'_, PyAny>, indices: &Bound<'_, PyAny>, name: &str)
     let mut offs = Vec::with_capacity(offs_arr.len());
     for_each_index(&offs_arr, &format!("{name} offsets"), &mut |v| offs.push(v))?;
     let corners = idx_arr.len();
-    if offs.first() != Some(&0) || offs.windows(2).any(|w| w[0] > w[1]) || offs.last().map(|&l| l as usize) != Some(corners)
+    if offs.first() != Some(&0)
+        || offs.windows(2).any(|w| w[0] > w[1])
+        || offs.last().map(|&l| l as usize) != Some(corners)
     {
         return Err(bad(format!(
             "{name} offsets must start at 0, never decrease and end at the number of indices ({corners})"

@@ -57,7 +57,10 @@ pub struct RawHierarchy {
 impl RawHierarchy {
     fn get(&self, k: usize) -> PyResult<&Level> {
         self.hierarchy.levels.get(k).ok_or_else(|| {
-            PyIndexError::new_err(format!("level {k}: the hierarchy has levels 0 to {}", self.hierarchy.levels.len() - 1))
+            PyIndexError::new_err(format!(
+                "level {k}: the hierarchy has levels 0 to {}",
+                self.hierarchy.levels.len() - 1
+            ))
         })
     }
 }
