@@ -111,7 +111,9 @@ fn for_each_index(arr: &Bound<'_, PyUntypedArray>, name: &str, each: &mut dyn Fn
         if let Some((i, v)) = s.iter().enumerate().find(|(_, v)| TryInto::<u32>::try_into(**v).is_err()) {
             return Err(bad(format!("{name}[{i}] (flat) is {v}: indices must lie in 0..2**32")));
         }
-        s.iter().for_each(|&v| each(v.try_into().unwrap_or(u32::MAX)));
+        for &v in s {
+            each(v.try_into().unwrap_or(u32::MAX));
+        }
         Ok(())
     }
     slice_of::<i64, _>(arr, |s| run(s, name, each))

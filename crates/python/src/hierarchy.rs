@@ -113,7 +113,7 @@ impl RawHierarchy {
     /// Writes the hierarchy as MRQ, as `octowrap reconstruct -o PATH.mrq` does: the vertices
     /// placed on their prediction lines (unless `keep_positions`), then encoded.
     #[pyo3(signature = (path, bits=None, step=None, exact=false, zstd_level=19, units=String::new(), source=String::new(), keep_positions=false))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments, clippy::needless_pass_by_value)]
     fn save(
         &self,
         py: Python<'_>,

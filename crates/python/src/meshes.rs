@@ -25,6 +25,7 @@ type ReadResult<'py> = (
 
 /// Reads a point cloud or mesh (format from the content, else the extension), GIL released.
 #[pyfunction]
+#[allow(clippy::needless_pass_by_value)] // pyo3 hands over extracted arguments by value
 pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<ReadResult<'_>> {
     let read = py.detach(|| octowrap_io::read_path_detected(&path, &ReadOptions::default()));
     let (format, mesh) = read.map_err(|e| errors::io_error(&e, &path, true))?;
@@ -47,7 +48,7 @@ pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<ReadResult<'_>> {
 /// extension names, atomically (a temporary file renamed into place), GIL released.
 #[pyfunction]
 #[pyo3(signature = (path, positions, faces=None, normals=None, colors=None, intensities=None, ascii=false))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::needless_pass_by_value)]
 pub fn write(
     py: Python<'_>,
     path: PathBuf,
