@@ -2,7 +2,7 @@
 
 The error is the root mean square of the distance from every input point to the level's surface
 (its quads split into triangles), relative to the diagonal of the points' bounding box, computed
-with trimesh's proximity query (pip install trimesh rtree). A plot of error against level goes to
+with trimesh's proximity query (pip install trimesh rtree scipy). A plot of error against level goes to
 bunny_levels.png when matplotlib is installed.
 
     OCTOWRAP_DATA=/path/to/shared/data python crates/python/examples/bunny_levels.py
@@ -40,10 +40,11 @@ def main() -> int:
     print(f"{len(points)} points -> {len(h)} levels in {time.perf_counter() - start:.2f} s")
     diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
     try:
-        import rtree  # noqa: F401  (trimesh's proximity query needs it)
+        import rtree  # noqa: F401  (trimesh's proximity query needs rtree and scipy)
+        import scipy  # noqa: F401
         import trimesh  # noqa: F401
     except ImportError:
-        print("the error needs trimesh and rtree: pip install trimesh rtree")
+        print("the error needs trimesh, rtree and scipy: pip install trimesh rtree scipy")
         return 0
     levels, errors = [], []
     print("level  faces     RMS / diagonal")
