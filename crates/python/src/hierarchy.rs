@@ -65,34 +65,6 @@ impl RawHierarchy {
     }
 }
 
-/// The encoder options `octowrap reconstruct -o x.mrq` uses for the same choices: a 16-bit grid
-/// unless `bits`, `step` or `exact` says otherwise, zstd level 19, the generator named.
-fn encode_options(
-    bits: Option<u32>,
-    step: Option<f64>,
-    exact: bool,
-    zstd_level: i32,
-    units: String,
-    source: String,
-) -> PyResult<EncodeOptions> {
-    let quantization = match (bits, step, exact) {
-        (Some(b), None, false) => Quantization::Bits(b),
-        (None, Some(s), false) => Quantization::Step(s),
-        (None, None, true) => Quantization::Exact,
-        (None, None, false) => Quantization::Bits(16),
-        _ => return Err(PyValueError::new_err("give at most one of bits, step and exact")),
-    };
-    if !(1..=22).contains(&zstd_level) {
-        return Err(PyValueError::new_err(format!("zstd_level must lie in 1..=22, not {zstd_level}")));
-    }
-    let mut o = EncodeOptions::with_quantization(quantization);
-    o.zstd_level = zstd_level;
-    o.metadata.units = units;
-    o.metadata.source = source;
-    o.metadata.generator = format!("octowrap {}", env!("CARGO_PKG_VERSION"));
-    Ok(o)
-}
-
 #[pymethods]
 impl RawHierarchy {
     fn __len__(&self) -> usize {
@@ -126,7 +98,23 @@ impl RawHierarchy {
         source: String,
         keep_positions: bool,
     ) -> PyResult<()> {
-        let opts = encode_options(bits, step, exact, zstd_level, units, source)?;
+        // The options `octowrap reconstruct -o x.mrq` takes for the same choices: a 16-bit grid
+        // unless bits, step or exact says otherwise, zstd level 19, the generator named.
+        let quantization = match (bits, step, exact) {
+            (Some(b), None, false) => Quantization::Bits(b),
+            (None, Some(s), false) => Quantization::Step(s),
+            (None, None, true) => Quantization::Exact,
+            (None, None, false) => Quantization::Bits(16),
+            _ => return Err(PyValueError::new_err("give at most one of bits, step and exact")),
+        };
+        if !(1..=22).contains(&zstd_level) {
+            return Err(PyValueError::new_err(format!("zstd_level must lie in 1..=22, not {zstd_level}")));
+        }
+        let mut opts = EncodeOptions::with_quantization(quantization);
+        opts.zstd_level = zstd_level;
+        opts.metadata.units = units;
+        opts.metadata.source = source;
+        opts.metadata.generator = format!("octowrap {}", env!("CARGO_PKG_VERSION"));
         let h = &self.hierarchy;
         let written = py.detach(|| {
             if keep_positions {

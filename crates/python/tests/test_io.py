@@ -86,3 +86,29 @@ def test_errors_name_the_file(tmp_path):
     with pytest.raises(OSError) as e:
         octowrap.write(tmp_path / "no" / "dir" / "x.ply", octowrap.PointCloud(sphere(10)))
     assert "x.ply" in str(e.value)
+
+
+def test_to_trimesh_and_to_open3d():
+    level = quad_mesh()
+    colors = np.full((len(level.vertices), 3), 200, np.uint8)
+    mesh = octowrap.Mesh(level.vertices, level.faces, colors=colors)
+    try:
+        import trimesh  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="pip install trimesh"):
+            mesh.to_trimesh()
+    else:
+        tm = mesh.to_trimesh()
+        np.testing.assert_array_equal(tm.vertices, level.vertices)
+        assert len(tm.faces) == 2 * len(level.faces)
+        assert tm.is_watertight and tm.is_winding_consistent and tm.volume > 0
+        assert (tm.visual.vertex_colors[:, :3] == 200).all()
+        assert len(octowrap.PointCloud(level.vertices).to_trimesh().vertices) == len(level.vertices)
+    try:
+        import open3d  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="pip install open3d"):
+            mesh.to_open3d()
+    else:
+        o3 = mesh.to_open3d()
+        assert len(o3.triangles) == 2 * len(level.faces) and o3.is_watertight()

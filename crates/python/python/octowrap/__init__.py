@@ -64,6 +64,20 @@ def _faces_from_csr(offsets: np.ndarray, indices: np.ndarray, k: Optional[int]) 
     return (offsets, indices)
 
 
+def _rgba(colors: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    if colors is None:
+        return None
+    return np.hstack([colors, np.full((len(colors), 1), 255, np.uint8)])
+
+
+def _open3d_attributes(o3d: Any, geometry: Any, normals: Optional[np.ndarray], colors: Optional[np.ndarray], prefix: str) -> Any:
+    if normals is not None:
+        setattr(geometry, prefix + "normals", o3d.utility.Vector3dVector(normals.astype(np.float64)))
+    if colors is not None:
+        setattr(geometry, prefix + "colors", o3d.utility.Vector3dVector(colors / 255.0))
+    return geometry
+
+
 def _need(module: str, extra: str) -> Any:
     import importlib
 
@@ -108,18 +122,13 @@ class PointCloud:
     def to_trimesh(self) -> Any:
         """A ``trimesh.PointCloud`` (needs trimesh)."""
         trimesh = _need("trimesh", "trimesh")
-        colors = None if self.colors is None else np.hstack([self.colors, np.full((len(self), 1), 255, np.uint8)])
-        return trimesh.PointCloud(self.points, colors=colors)
+        return trimesh.PointCloud(self.points, colors=_rgba(self.colors))
 
     def to_open3d(self) -> Any:
         """An ``open3d.geometry.PointCloud`` (needs open3d)."""
         o3d = _need("open3d", "open3d")
         pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(self.points))
-        if self.normals is not None:
-            pc.normals = o3d.utility.Vector3dVector(self.normals.astype(np.float64))
-        if self.colors is not None:
-            pc.colors = o3d.utility.Vector3dVector(self.colors / 255.0)
-        return pc
+        return _open3d_attributes(o3d, pc, self.normals, self.colors, "")
 
 
 class Mesh:
@@ -184,9 +193,12 @@ class Mesh:
     def to_trimesh(self, process: bool = False) -> Any:
         """A ``trimesh.Trimesh`` (needs trimesh); polygons fanned into triangles, vertex order kept."""
         trimesh = _need("trimesh", "trimesh")
-        colors = None if self.colors is None else np.hstack([self.colors, np.full((len(self.vertices), 1), 255, np.uint8)])
         return trimesh.Trimesh(
-            vertices=self.vertices, faces=self.triangles(), vertex_normals=self.normals, vertex_colors=colors, process=process
+            vertices=self.vertices,
+            faces=self.triangles(),
+            vertex_normals=self.normals,
+            vertex_colors=_rgba(self.colors),
+            process=process,
         )
 
     def to_open3d(self) -> Any:
@@ -195,11 +207,7 @@ class Mesh:
         m = o3d.geometry.TriangleMesh(
             o3d.utility.Vector3dVector(self.vertices), o3d.utility.Vector3iVector(self.triangles().astype(np.int32))
         )
-        if self.normals is not None:
-            m.vertex_normals = o3d.utility.Vector3dVector(self.normals.astype(np.float64))
-        if self.colors is not None:
-            m.vertex_colors = o3d.utility.Vector3dVector(self.colors / 255.0)
-        return m
+        return _open3d_attributes(o3d, m, self.normals, self.colors, "vertex_")
 
 
 class Level(Mesh):
