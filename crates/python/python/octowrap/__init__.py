@@ -1,0 +1,436 @@
+"""octowrap: point clouds to multiresolution quad meshes, for numpy, trimesh and Open3D users.
+
+Arrays in and out are numpy arrays: positions ``float64 (N, 3)``, normals ``float32 (N, 3)``,
+colours ``uint8 (N, 3)``, faces ``int64``. A mesh whose faces all have ``k`` corners (triangles,
+quads) gives ``faces`` as an ``(M, k)`` array; a mesh of mixed polygons gives the pair
+``(offsets, indices)``, face ``i`` being ``indices[offsets[i]:offsets[i + 1]]`` (both forms are
+accepted as input). Inputs must be C-contiguous arrays of the stated dtype: anything else is a
+``ValueError`` that says what to pass. Each array is copied once on the way in, then the work runs
+with the GIL released, so other Python threads keep running.
+
+Errors: ``OSError`` (with the path) when the operating system refuses, ``FormatError`` (a
+``ValueError``) for files octowrap cannot read, ``ValueError`` for bad arguments; the messages are
+the command line's.
+
+>>> import numpy as np, octowrap
+>>> rng = np.random.default_rng(1)
+>>> p = rng.normal(size=(20000, 3)); p /= np.linalg.norm(p, axis=1, keepdims=True)
+>>> h = octowrap.reconstruct(p, max_level=4)
+>>> len(h), h[4].faces.shape[1]
+(5, 4)
+>>> octowrap.validate(h[4].vertices, h[4].faces, require=["watertight", "oriented"])["passed"]
+True
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _octowrap
+from ._octowrap import FORMAT_VERSION, FormatError, __version__
+
+__all__ = [
+    "FORMAT_VERSION",
+    "FormatError",
+    "Hierarchy",
+    "Level",
+    "Mesh",
+    "MrqFile",
+    "PointCloud",
+    "open_mrq",
+    "read",
+    "reconstruct",
+    "validate",
+    "write",
+    "WRITABLE_FORMATS",
+    "__version__",
+]
+
+#: Extensions (without the dot) that :func:`write` writes.
+WRITABLE_FORMATS: Tuple[str, ...] = tuple(_octowrap.writable_extensions())
+
+Faces = Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]
+
+
+def _faces_from_csr(offsets: np.ndarray, indices: np.ndarray, k: Optional[int]) -> Faces:
+    if k is not None:
+        return indices.reshape(-1, k)
+    if len(offsets) == 1:
+        return np.empty((0, 3), dtype=np.int64)
+    return (offsets, indices)
+
+
+def _rgba(colors: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    if colors is None:
+        return None
+    return np.hstack([colors, np.full((len(colors), 1), 255, np.uint8)])
+
+
+def _open3d_attributes(o3d: Any, geometry: Any, normals: Optional[np.ndarray], colors: Optional[np.ndarray], prefix: str) -> Any:
+    if normals is not None:
+        setattr(geometry, prefix + "normals", o3d.utility.Vector3dVector(normals.astype(np.float64)))
+    if colors is not None:
+        setattr(geometry, prefix + "colors", o3d.utility.Vector3dVector(colors / 255.0))
+    return geometry
+
+
+def _need(module: str, extra: str) -> Any:
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        raise ImportError(f"this needs the '{module}' package: pip install {extra}") from e
+
+
+class PointCloud:
+    """Points with optional normals, colours and intensities (``None`` when absent).
+
+    >>> import numpy as np, octowrap
+    >>> c = octowrap.PointCloud(np.zeros((2, 3)))
+    >>> c.points.shape, c.normals
+    ((2, 3), None)
+    """
+
+    def __init__(
+        self,
+        points: np.ndarray,
+        normals: Optional[np.ndarray] = None,
+        colors: Optional[np.ndarray] = None,
+        intensities: Optional[np.ndarray] = None,
+    ) -> None:
+        self.points = points
+        self.normals = normals
+        self.colors = colors
+        self.intensities = intensities
+
+    @property
+    def positions(self) -> np.ndarray:
+        """The points, ``float64 (N, 3)``."""
+        return self.points
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __repr__(self) -> str:
+        return f"PointCloud({len(self)} points)"
+
+    def to_trimesh(self) -> Any:
+        """A ``trimesh.PointCloud`` (needs trimesh)."""
+        trimesh = _need("trimesh", "trimesh")
+        return trimesh.PointCloud(self.points, colors=_rgba(self.colors))
+
+    def to_open3d(self) -> Any:
+        """An ``open3d.geometry.PointCloud`` (needs open3d)."""
+        o3d = _need("open3d", "open3d")
+        pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(self.points))
+        return _open3d_attributes(o3d, pc, self.normals, self.colors, "")
+
+
+class Mesh:
+    """A polygon mesh: ``vertices float64 (N, 3)`` and ``faces``.
+
+    ``faces`` is an ``(M, k)`` ``int64`` array when every face has ``k`` corners, else the pair
+    ``(offsets, indices)``; ``face_offsets`` and ``face_indices`` give the pair form always.
+
+    >>> import numpy as np, octowrap
+    >>> m = octowrap.Mesh(np.eye(3), np.array([[0, 1, 2]]))
+    >>> m.faces.shape, m.face_offsets.tolist()
+    ((1, 3), [0, 3])
+    """
+
+    def __init__(
+        self,
+        vertices: np.ndarray,
+        faces: Faces,
+        normals: Optional[np.ndarray] = None,
+        colors: Optional[np.ndarray] = None,
+    ) -> None:
+        self.vertices = vertices
+        self.faces = faces
+        self.normals = normals
+        self.colors = colors
+
+    @property
+    def positions(self) -> np.ndarray:
+        """The vertices, ``float64 (N, 3)``."""
+        return self.vertices
+
+    @property
+    def face_offsets(self) -> np.ndarray:
+        """``int64 (M + 1,)``: face ``i`` is ``face_indices[face_offsets[i]:face_offsets[i + 1]]``."""
+        if isinstance(self.faces, tuple):
+            return np.asarray(self.faces[0])
+        m, k = np.shape(self.faces)
+        return np.arange(0, (m + 1) * k, k, dtype=np.int64)
+
+    @property
+    def face_indices(self) -> np.ndarray:
+        """``int64 (C,)``: every face's corners, face after face."""
+        if isinstance(self.faces, tuple):
+            return np.asarray(self.faces[1])
+        return np.asarray(self.faces).reshape(-1)
+
+    def __repr__(self) -> str:
+        return f"Mesh({len(self.vertices)} vertices, {len(self.face_offsets) - 1} faces)"
+
+    def triangles(self) -> np.ndarray:
+        """The faces as triangles ``int64 (T, 3)``: each face fanned from its first corner."""
+        off, idx = self.face_offsets, self.face_indices
+        sizes = np.diff(off)
+        if sizes.size and (sizes == 3).all():
+            return idx.reshape(-1, 3)
+        fans = np.maximum(sizes - 2, 0)
+        face = np.repeat(np.arange(len(sizes)), fans)
+        step = np.arange(fans.sum()) - np.repeat(np.cumsum(fans) - fans, fans)
+        first = off[:-1][face]
+        return np.stack([idx[first], idx[first + step + 1], idx[first + step + 2]], axis=1)
+
+    def to_trimesh(self, process: bool = False) -> Any:
+        """A ``trimesh.Trimesh`` (needs trimesh); polygons fanned into triangles, vertex order kept."""
+        trimesh = _need("trimesh", "trimesh")
+        return trimesh.Trimesh(
+            vertices=self.vertices,
+            faces=self.triangles(),
+            vertex_normals=self.normals,
+            vertex_colors=_rgba(self.colors),
+            process=process,
+        )
+
+    def to_open3d(self) -> Any:
+        """An ``open3d.geometry.TriangleMesh`` (needs open3d); polygons fanned into triangles."""
+        o3d = _need("open3d", "open3d")
+        m = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(self.vertices), o3d.utility.Vector3iVector(self.triangles().astype(np.int32))
+        )
+        return _open3d_attributes(o3d, m, self.normals, self.colors, "vertex_")
+
+
+class Level(Mesh):
+    """One level of a :class:`Hierarchy`: a quad mesh plus each face's origin one level up.
+
+    ``parent`` (``int64 (M,)``) is the face of the level above that a face subdivides, ``-1`` for a
+    created face (and every face of level 0); ``quadrant`` (``int8 (M,)``) the quarter of that
+    parent it covers (the one touching the parent's corner ``quadrant``), ``-1`` when created.
+    ``kind`` is ``"root"``, ``"wrapped"`` or ``"subdivided"`` for reconstructed levels, ``None``
+    for levels read from a file.
+    """
+
+    def __init__(self, raw: tuple) -> None:
+        positions, offsets, indices, k, parent, quadrant, kind = raw
+        super().__init__(positions, _faces_from_csr(offsets, indices, k))
+        self.parent: np.ndarray = parent
+        self.quadrant: np.ndarray = quadrant
+        self.kind: Optional[str] = kind
+
+    def __repr__(self) -> str:
+        return f"Level({len(self.vertices)} vertices, {len(self.parent)} faces, kind={self.kind!r})"
+
+
+class Hierarchy:
+    """A coarse-to-fine sequence of quad meshes; ``h[k]`` is level ``k`` (a :class:`Level`).
+
+    >>> import numpy as np, octowrap
+    >>> p = np.random.default_rng(0).normal(size=(5000, 3))
+    >>> h = octowrap.reconstruct(p / np.linalg.norm(p, axis=1, keepdims=True), max_level=3)
+    >>> [h[k].kind for k in range(len(h))]
+    ['root', 'wrapped', 'wrapped', 'wrapped']
+    """
+
+    def __init__(self, raw: Any) -> None:
+        self._raw = raw
+
+    def __len__(self) -> int:
+        return len(self._raw)
+
+    def __getitem__(self, k: int) -> Level:
+        n = len(self)
+        if not isinstance(k, (int, np.integer)):
+            raise TypeError(f"level numbers are integers, not {type(k).__name__}")
+        if k < 0:
+            k += n
+        if not 0 <= k < n:
+            raise IndexError(f"level {k}: the hierarchy has levels 0 to {n - 1}")
+        return Level(self._raw.level(int(k)))
+
+    def __iter__(self):
+        return (self[k] for k in range(len(self)))
+
+    def __repr__(self) -> str:
+        return f"Hierarchy({len(self)} levels)"
+
+    @property
+    def cube(self) -> Optional[Tuple[Tuple[float, float, float], Tuple[float, float, float]]]:
+        """The octree root cube ``(min, max)``, when the hierarchy came from an octree."""
+        return self._raw.cube
+
+    def save(
+        self,
+        path: Union[str, os.PathLike],
+        bits: Optional[int] = None,
+        step: Optional[float] = None,
+        exact: bool = False,
+        zstd_level: int = 19,
+        units: str = "",
+        source: str = "",
+        keep_positions: bool = False,
+    ) -> None:
+        """Writes the hierarchy as an MRQ file, exactly as ``octowrap reconstruct -o x.mrq``.
+
+        Positions go on a grid of ``2**bits`` steps across the octree cube (16 by default), or of
+        ``step`` world units, or are stored ``exact``. Unless ``keep_positions``, the vertices first
+        slide along their tangent planes onto the lines the decoder predicts (smaller files; the
+        hierarchy held here is not changed). ``source`` and ``units`` are recorded as metadata (the
+        command line records the input file's name as ``source``).
+        """
+        self._raw.save(os.fspath(path), bits, step, exact, zstd_level, units, source, keep_positions)
+
+
+class MrqFile:
+    """An MRQ file opened by :func:`open_mrq`: only its preamble is read until a level is asked for.
+
+    ``info`` holds what ``octowrap info --format json`` reports: ``version``, ``grid`` (the
+    quantization: ``origin``, ``step``, ``bits``, ``tied_to_cube``; ``None`` for exact files),
+    ``cube``, ``metadata``, and ``levels`` (per level ``offset``, ``stored_size`` in bytes,
+    ``raw_size``, ``checksum``, ``vertex_count``, ``face_count``, ``corner_count``).
+    """
+
+    def __init__(self, raw: Any) -> None:
+        self._raw = raw
+        self.info: Dict[str, Any] = json.loads(raw.info_json())
+
+    def __len__(self) -> int:
+        return len(self._raw)
+
+    def __repr__(self) -> str:
+        return f"MrqFile({len(self)} levels)"
+
+    def level(self, k: int) -> Level:
+        """Level ``k``, decoding levels ``0..k`` only (the rest of the file is not read)."""
+        if k < 0:
+            k += len(self)
+        return Level(self._raw.level(k))
+
+    def hierarchy(self, k: Optional[int] = None) -> Hierarchy:
+        """Levels ``0..k`` (all by default) as a :class:`Hierarchy`."""
+        return Hierarchy(self._raw.hierarchy(k))
+
+
+def read(path: Union[str, os.PathLike]) -> Union[PointCloud, Mesh]:
+    """Reads a point cloud or mesh: PLY, OBJ, OFF, STL, XYZ/PTS, PCD, LAS/LAZ, E57, EXR, .conf.
+
+    The format comes from the content, else the extension; ``.gz`` files are decompressed. A file
+    without faces gives a :class:`PointCloud`, else a :class:`Mesh`.
+
+    >>> import octowrap
+    >>> octowrap.read("missing.ply")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: [Errno 2] missing.ply: i/o error: No such file or directory (os error 2): 'missing.ply'
+    """
+    positions, normals, colors, intensities, offsets, indices, k, _format = _octowrap.read(os.fspath(path))
+    if len(offsets) == 1:
+        return PointCloud(positions, normals, colors, intensities)
+    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
+
+
+def write(path: Union[str, os.PathLike], data: Union[PointCloud, Mesh], ascii: bool = False) -> None:
+    """Writes a :class:`PointCloud` or :class:`Mesh` in the format the extension names.
+
+    Writable: ``.ply`` (binary, or text with ``ascii=True``), ``.obj``, ``.off``, ``.stl`` (triangles:
+    quads split along their shorter diagonal), ``.xyz`` (points only). The file is written
+    beside the target and renamed into place, so a failure never leaves half a file.
+    """
+    if isinstance(data, Mesh):
+        faces: Any = data.faces
+        _octowrap.write(os.fspath(path), data.vertices, faces, data.normals, data.colors, None, ascii)
+    elif isinstance(data, PointCloud):
+        _octowrap.write(os.fspath(path), data.points, None, data.normals, data.colors, data.intensities, ascii)
+    else:
+        raise ValueError(f"write takes an octowrap.Mesh or octowrap.PointCloud, not {type(data).__name__}")
+
+
+def reconstruct(
+    points: np.ndarray,
+    max_level: Union[int, str] = "auto",
+    relax_passes: int = 4,
+    relax_from_level: int = 4,
+    fit_passes: int = 3,
+    fit_max_faces: int = 100_000,
+    min_points: float = 8.0,
+    wrap_sparse: bool = False,
+    region_levels: int = 0,
+    region_density: float = 4.0,
+    threads: Optional[int] = None,
+) -> Hierarchy:
+    """Reconstructs a surface from ``points`` (``float64 (N, 3)``): a quad mesh at every octree level.
+
+    The options are ``octowrap reconstruct``'s: ``max_level`` (``"auto"``: the deepest level the
+    sampling density supports, or a level number; deeper levels are subdivided), ``relax_passes``
+    from ``relax_from_level`` on, ``fit_passes`` of the least-squares fit on levels of at most
+    ``fit_max_faces`` faces, ``min_points`` (median points per cell for a trusted level),
+    ``wrap_sparse``, ``region_levels`` and ``region_density``. ``threads`` sets the size of the
+    worker pool (``None``: every core); the result is the same for any number. The GIL is released
+    while it runs.
+
+    >>> import numpy as np, octowrap
+    >>> octowrap.reconstruct(np.zeros((0, 3)))
+    Traceback (most recent call last):
+    ...
+    ValueError: the point cloud is empty
+    """
+    return Hierarchy(
+        _octowrap.reconstruct(
+            points,
+            max_level,
+            relax_passes,
+            relax_from_level,
+            fit_passes,
+            fit_max_faces,
+            min_points,
+            wrap_sparse,
+            region_levels,
+            region_density,
+            threads,
+        )
+    )
+
+
+def open_mrq(path: Union[str, os.PathLike]) -> MrqFile:
+    """Opens an MRQ file, reading and checking its preamble only (see :class:`MrqFile`)."""
+    return MrqFile(_octowrap.open_mrq(os.fspath(path)))
+
+
+def validate(
+    vertices: np.ndarray,
+    faces: Faces,
+    require: Sequence[str] = ("manifold",),
+    weld: bool = False,
+    self_intersections: bool = False,
+    max_elements: int = 100,
+) -> Dict[str, Any]:
+    """Checks a mesh as ``octowrap validate`` does; returns its JSON report entry as a dict.
+
+    ``require`` names properties that must hold: ``manifold``, ``oriented``, ``closed``,
+    ``watertight``, ``clean``, ``intersection-free``. The dict has ``passed``,
+    ``failed_requirements``, and ``outcome`` with ``properties``, ``counts`` and ``findings`` (each
+    with its stable ``code``, such as ``E-NONMANIFOLD-EDGE``). Broken faces (indices out of range,
+    fewer than 3 corners) are reported, not refused. ``weld`` merges bit-equal vertices first.
+
+    >>> import numpy as np, octowrap
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, -1, 0]], dtype=float)
+    >>> r = octowrap.validate(v, np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]]))
+    >>> r["passed"], r["outcome"]["counts"]["non_manifold_edges"], r["outcome"]["findings"][0]["code"]
+    (False, 1, 'E-NONMANIFOLD-EDGE')
+    """
+    if isinstance(require, str):
+        require = [require]
+    report = json.loads(
+        _octowrap.validate(vertices, faces, list(require), weld, self_intersections, max_elements)
+    )
+    report["passed"] = not report["failed_requirements"]
+    return report

@@ -1,0 +1,129 @@
+"""reconstruct, Hierarchy, save and open_mrq: the library's results, the command line's bytes."""
+
+import inspect
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import octowrap
+from octowrap import _octowrap
+from conftest import octowrap_bin, sphere
+
+
+@pytest.fixture(scope="module")
+def hierarchy():
+    return octowrap.reconstruct(sphere(30000), max_level=5)
+
+
+def test_python_defaults_are_the_library_defaults():
+    params = inspect.signature(octowrap.reconstruct).parameters
+    defaults = _octowrap.recon_defaults()
+    assert {k: params[k].default for k in defaults} == defaults
+
+
+def test_levels_are_linked_quad_meshes(hierarchy):
+    assert len(hierarchy) == 6
+    assert [lv.kind for lv in hierarchy] == ["root"] + ["wrapped"] * 5
+    assert hierarchy[0].faces.shape == (6, 4) and (hierarchy[0].parent == -1).all()
+    for k in range(1, len(hierarchy)):
+        lv, up = hierarchy[k], hierarchy[k - 1]
+        assert lv.faces.ndim == 2 and lv.faces.shape[1] == 4
+        assert lv.vertices.dtype == np.float64 and lv.vertices.shape[1] == 3
+        assert lv.parent.shape == lv.quadrant.shape == (len(lv.faces),)
+        sub = lv.parent >= 0
+        assert ((lv.quadrant >= 0) == sub).all()
+        assert lv.parent.max() < len(up.faces) and lv.quadrant.max() <= 3
+        pairs = lv.parent[sub] * 4 + lv.quadrant[sub]
+        assert len(np.unique(pairs)) == len(pairs), "two faces claim one quadrant"
+        r = octowrap.validate(lv.vertices, lv.faces, require=["watertight", "oriented"])
+        assert r["passed"], (k, r["failed_requirements"])
+    assert hierarchy[-1].kind == hierarchy[5].kind
+    with pytest.raises(IndexError, match="levels 0 to 5"):
+        hierarchy[6]
+    lo, hi = hierarchy.cube
+    assert all(a < -1 and b > 1 for a, b in zip(lo, hi))
+
+
+def test_same_bytes_for_any_thread_count(tmp_path):
+    p = sphere(20000, seed=3)
+    octowrap.reconstruct(p, max_level=4, threads=1).save(tmp_path / "1.mrq")
+    octowrap.reconstruct(p, max_level=4, threads=2).save(tmp_path / "2.mrq")
+    assert (tmp_path / "1.mrq").read_bytes() == (tmp_path / "2.mrq").read_bytes()
+
+
+def test_same_mrq_bytes_as_the_command_line(tmp_path):
+    exe = octowrap_bin()
+    p = sphere(40000, seed=5) * 3.0 + np.array([10.0, -2.0, 0.5])
+    octowrap.write(tmp_path / "points.ply", octowrap.PointCloud(p))
+    np.testing.assert_array_equal(octowrap.read(tmp_path / "points.ply").points, p)
+    for args, kwargs in [([], {}), (["--level", "6", "--relax-passes", "2", "--bits", "14"], {"max_level": 6, "relax_passes": 2})]:
+        cli = tmp_path / "cli.mrq"
+        run = subprocess.run([str(exe), "reconstruct", str(tmp_path / "points.ply"), "-o", str(cli), *args], capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stderr
+        h = octowrap.reconstruct(p, **kwargs)
+        save = {"bits": 14} if "--bits" in args else {}
+        h.save(tmp_path / "py.mrq", source="points.ply", **save)
+        assert (tmp_path / "py.mrq").read_bytes() == cli.read_bytes(), args
+
+
+def test_open_mrq_reads_only_the_prefix_it_needs(tmp_path, hierarchy):
+    path = tmp_path / "h.mrq"
+    hierarchy.save(path, units="m")
+    f = octowrap.open_mrq(path)
+    assert len(f) == len(hierarchy)
+    info = f.info
+    assert info["metadata"]["units"] == "m" and info["grid"]["bits"] == 16 and info["version"] == octowrap.FORMAT_VERSION
+    assert [lv["face_count"] for lv in info["levels"]] == [len(lv.faces) for lv in hierarchy]
+    assert info["preamble_size"] + sum(lv["stored_size"] for lv in info["levels"]) == path.stat().st_size
+    # Cut the file after level 3: levels 0-3 still decode, level 4 does not.
+    end3 = info["levels"][3]["offset"] + info["levels"][3]["stored_size"]
+    cut = tmp_path / "cut.mrq"
+    cut.write_bytes(path.read_bytes()[:end3])
+    g = octowrap.open_mrq(cut)
+    lv3 = g.level(3)
+    np.testing.assert_array_equal(lv3.faces, f.level(3).faces)
+    assert lv3.kind is None and len(lv3.faces) == len(hierarchy[3].faces)
+    # With keep_positions the file holds every reconstructed vertex within half a grid step on
+    # each axis (in the canonical vertex order: compare each with its nearest).
+    kept = tmp_path / "kept.mrq"
+    hierarchy.save(kept, keep_positions=True)
+    a, b = octowrap.open_mrq(kept).level(3).vertices, hierarchy[3].vertices
+    nearest = np.abs(a[:, None, :] - b[None, :, :]).max(axis=2).min(axis=1)
+    step = info["grid"]["step"]
+    assert nearest.max() <= step / 2 * (1 + 1e-9), (nearest.max(), step)
+    assert kept.stat().st_size > path.stat().st_size
+    with pytest.raises(octowrap.FormatError, match=r"reading .*cut.mrq: truncated"):
+        g.level(4)
+    with pytest.raises(IndexError):
+        g.level(len(g))
+    assert len(f.hierarchy(2)) == 3
+
+
+def test_the_gil_is_released_while_reconstructing():
+    p = sphere(400_000, seed=7)
+    ticks = 0
+    stop = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not stop.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    time.sleep(0.05)
+    before = ticks
+    start = time.perf_counter()
+    octowrap.reconstruct(p, max_level=7)
+    seconds = time.perf_counter() - start
+    during = ticks - before
+    stop.set()
+    t.join()
+    assert seconds > 0.2, f"the input is too small to tell ({seconds:.3f} s)"
+    # A thread that sleeps 1 ms per tick gets at least a tenth of its ticks when the GIL is free;
+    # it gets none while a call holds the GIL.
+    assert during > seconds * 100, (during, seconds)
