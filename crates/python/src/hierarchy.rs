@@ -98,13 +98,15 @@ impl RawHierarchy {
         source: String,
         keep_positions: bool,
     ) -> PyResult<()> {
-        // The options `octowrap reconstruct -o x.mrq` takes for the same choices: a 16-bit grid
-        // unless bits, step or exact says otherwise, zstd level 19, the generator named.
+        // The options `octowrap reconstruct -o x.mrq` takes for the same choices: a grid of a
+        // 64th of the finest voxel unless bits, step or exact says otherwise, zstd level 19, the generator named.
         let quantization = match (bits, step, exact) {
             (Some(b), None, false) => Quantization::Bits(b),
             (None, Some(s), false) => Quantization::Step(s),
             (None, None, true) => Quantization::Exact,
-            (None, None, false) => Quantization::Bits(16),
+            (None, None, false) => Quantization::Bits(octowrap_format::reconstruction_grid_bits(
+                self.hierarchy.levels.len().saturating_sub(1),
+            )),
             _ => return Err(PyValueError::new_err("give at most one of bits, step and exact")),
         };
         if !(1..=22).contains(&zstd_level) {

@@ -75,7 +75,7 @@ def test_open_mrq_reads_only_the_prefix_it_needs(tmp_path, hierarchy):
     f = octowrap.open_mrq(path)
     assert len(f) == len(hierarchy)
     info = f.info
-    assert info["metadata"]["units"] == "m" and info["grid"]["bits"] == 16 and info["version"] == octowrap.FORMAT_VERSION
+    assert info["metadata"]["units"] == "m" and info["grid"]["bits"] == len(hierarchy) - 1 + 6 and info["version"] == octowrap.FORMAT_VERSION
     assert [lv["face_count"] for lv in info["levels"]] == [len(lv.faces) for lv in hierarchy]
     assert info["preamble_size"] + sum(lv["stored_size"] for lv in info["levels"]) == path.stat().st_size
     # Cut the file after level 3: levels 0-3 still decode, level 4 does not.

@@ -196,7 +196,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
     let mut mrq_opts = args.mrq.options(false, &args.input);
     if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
-        mrq_opts.quantization = Quantization::Bits(default_grid_bits(r.hierarchy.levels.len() - 1));
+        mrq_opts.quantization =
+            Quantization::Bits(octowrap_format::reconstruction_grid_bits(r.hierarchy.levels.len() - 1));
     }
     let placement = if is_mrq && !args.keep_positions {
         let t = std::time::Instant::now();
@@ -246,19 +247,6 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// Grid steps per voxel of the finest level, as a power of two, in the default quantization of
-/// .mrq output: with a 64th of a voxel, quantization adds at most about 1 % to any level's
-/// points-to-mesh error (bunny, level 6: +0.8 %; a 16th adds 11 %, a 32nd 3 %).
-const GRID_STEPS_PER_FINEST_VOXEL_LOG2: u32 = 6;
-
-/// The default grid of .mrq output for a hierarchy whose finest level is `finest`: tied to the
-/// cube, `2^(finest + 6)` steps across it (a 64th of the finest voxel), within the format's 1 to
-/// 28 bits.
-fn default_grid_bits(finest: usize) -> u32 {
-    let finest = u32::try_from(finest).unwrap_or(u32::MAX);
-    finest.saturating_add(GRID_STEPS_PER_FINEST_VOXEL_LOG2).clamp(1, octowrap_format::MAX_GRID_BITS)
 }
 
 /// Refuses, before any work, options that cannot be honoured or would be ignored.

@@ -281,8 +281,9 @@ class Hierarchy:
     ) -> None:
         """Writes the hierarchy as an MRQ file, exactly as ``octowrap reconstruct -o x.mrq``.
 
-        Positions go on a grid of ``2**bits`` steps across the octree cube (16 by default), or of
-        ``step`` world units, or are stored ``exact``. Unless ``keep_positions``, the vertices first
+        Positions go on a grid of ``2**bits`` steps across the octree cube (by default a 64th of
+        the finest level's voxel: ``bits = finest level + 6``), or of ``step`` world units, or are
+        stored ``exact``. Unless ``keep_positions``, the vertices first
         slide along their tangent planes onto the lines the decoder predicts (smaller files; the
         hierarchy held here is not changed). ``source`` and ``units`` are recorded as metadata (the
         command line records the input file's name as ``source``).
