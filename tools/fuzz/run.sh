@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Runs fuzz targets one after another and prints executions, crashes, ooms and timeouts for each.
 #
-#   tools/fuzz/run.sh [-t SECONDS | -n RUNS] [-j JOBS] [TARGET...]
+#   tools/fuzz/run.sh [-t SECONDS] [-n RUNS] [-j JOBS] [TARGET...]
 #
-#   -t SECONDS  time per target (default 60)
-#   -n RUNS     executions per target instead (e.g. -n 10000000 for the full campaign)
+#   -t SECONDS  time per target (default 60 when -n is not given)
+#   -n RUNS     executions per target (e.g. -n 10000000 for the full campaign); with -t as well,
+#               a target stops at whichever comes first
 #   -j JOBS     parallel libFuzzer jobs per target (default 1)
 #   TARGET      default: every target in Cargo.toml
 #
@@ -16,16 +17,17 @@
 # stable toolchain the targets build with --sanitizer none. Exit status: 1 if anything was found.
 set -euo pipefail
 cd "$(dirname "$0")"
-secs=60 runs="" jobs=1
+secs="" runs="" jobs=1
 while getopts "t:n:j:" o; do
     case $o in
         t) secs=$OPTARG ;;
         n) runs=$OPTARG ;;
         j) jobs=$OPTARG ;;
-        *) sed -n '2,16p' "$0"; exit 2 ;;
+        *) sed -n '2,17p' "$0"; exit 2 ;;
     esac
 done
 shift $((OPTIND - 1))
+[ -n "$secs$runs" ] || secs=60
 targets=("$@")
 fuzz() { cargo fuzz "$1" --fuzz-dir . "${@:2}"; }
 # `stress` is a plain binary (no libFuzzer entry point), not a target.
@@ -36,7 +38,9 @@ printf '%-10s %12s %8s %6s %9s %8s\n' target executions crashes ooms timeouts se
 found=0
 for t in "${targets[@]}"; do
     mkdir -p "corpus/$t" "artifacts/$t"
-    if [ -n "$runs" ]; then stop=(-runs="$runs"); else stop=(-max_total_time="$secs"); fi
+    stop=()
+    [ -z "$runs" ] || stop+=(-runs="$runs")
+    [ -z "$secs" ] || stop+=(-max_total_time="$secs")
     fuzz build --sanitizer none "$t" >"logs/$t.build.log" 2>&1 || { echo "$t: does not build (logs/$t.build.log)"; found=1; continue; }
     start=$(date +%s)
     fuzz run --sanitizer none "$t" "corpus/$t" -- \
