@@ -457,122 +457,156 @@ fn zigzag(v: i64) -> u64 {
     ((v << 1) ^ (v >> 63)) as u64
 }
 
+/// The streams of a mode-3 level block that the `v3_` files edit (spec §5.9).
+const EXTRA_KEYS: usize = 6;
+const SPLIT_KEYS: usize = 7;
+const EXCEPTIONS: usize = 8;
+const CHOICES: usize = 9;
+
+/// `regress/v3_splits_and_exceptions.mrq`'s hierarchy, encoded, with its level payloads: the
+/// starting point of every `v3_` invalid file.
+struct Mode3Base {
+    file: Vec<u8>,
+    payloads: Vec<Vec<u8>>,
+}
+
+impl Mode3Base {
+    fn new() -> Self {
+        let joins = Edits { join: 0.3, split: 0.1, ..Edits::default() };
+        let file = encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap();
+        let payloads = payloads(&file).unwrap();
+        assert_eq!(payloads[1][0], 3, "level 1 is in mode 3");
+        Self { file, payloads }
+    }
+
+    /// Level 1's stream `i`, as encoded.
+    fn stream(&self, i: usize) -> Vec<u8> {
+        stream_bytes(&self.payloads[1], i)
+    }
+
+    /// The file with level 1's stream `i` edited, resealed (sizes and checksums fixed).
+    fn with(&self, i: usize, edit: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+        let mut p = self.payloads.clone();
+        p[1] = with_stream(&self.payloads[1], i, edit);
+        reseal(&self.file, &p, None).unwrap()
+    }
+}
+
 /// Invalid files that break the rules of mode 3's corner resolution (spec §5.9), all in level 1
 /// (mode 3, depth 1: corner keys below 27) of `regress/v3_splits_and_exceptions.mrq`'s hierarchy,
-/// whose first exception is at corner 0 and numbers vertex 0.
-#[allow(clippy::too_many_lines)] // one file per rule of spec §5.9, in the spec's order
+/// whose first exception is at corner 0 and numbers vertex 0. One file per rule, in the spec's order.
 fn invalid_mode3_set() -> Vec<Invalid> {
-    let joins = Edits { join: 0.3, split: 0.1, ..Edits::default() };
-    let base = encode(&cube_hierarchy(3, joins, 8), &v3(q(12))).unwrap();
-    let good = payloads(&base).unwrap();
-    assert_eq!(good[1][0], 3, "level 1 is in mode 3");
-    let (extra_keys, split_keys, exceptions, choices) = (6, 7, 8, 9);
-    let read = |i: usize| stream_bytes(&good[1], i);
-    // Exceptions start with: count, corner 0, vertex 0 (= next: a new vertex), its key delta.
-    let exc = read(exceptions);
+    let base = Mode3Base::new();
+    let mut out = mode3_exception_files(&base);
+    out.extend(mode3_split_files(&base));
+    out.extend(mode3_extra_files(&base));
+    out
+}
+
+/// Level 1's exceptions, which start with: count, corner 0, vertex 0 (= next: a new vertex), its
+/// key delta.
+fn mode3_exception_files(base: &Mode3Base) -> Vec<Invalid> {
+    let exc = base.stream(EXCEPTIONS);
     assert!(exc[0] > 1 && exc[1] == 0 && exc[2] == 0 && exc[3] < 0x80 && exc[4] < 0x80, "{:?}", &exc[..6]);
-    let splits = read(split_keys);
-    let mut split_set = Vec::new();
-    let mut key = 0u64;
-    for i in 0..usize::from(splits[0]) {
-        key = if i == 0 { u64::from(splits[1]) } else { key + 1 + u64::from(splits[1 + i]) };
-        split_set.push(key);
-    }
-    assert_eq!(*split_set.last().unwrap(), 26, "the last split key is the last key of depth 1");
-    let level = |p: Vec<Vec<u8>>| reseal(&base, &p, None).unwrap();
-    let mut out = Vec::new();
-
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], exceptions, |s| s[2] = 1);
-    out.push((
-        "v3_exception_vertex_beyond_next.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's first exception (corner 0) names vertex 1 while only 0 may be numbered",
-        level(p),
-    ));
-
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], exceptions, |s| drop(s.splice(3..4, varint(zigzag(1_000_000)))));
-    out.push((
-        "v3_exception_key_not_lattice.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's first exception numbers a vertex whose key is no corner key of depth 1",
-        level(p),
-    ));
-
+    let mut out = vec![
+        (
+            "v3_exception_vertex_beyond_next.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's first exception (corner 0) names vertex 1 while only 0 may be numbered",
+            base.with(EXCEPTIONS, |s| s[2] = 1),
+        ),
+        (
+            "v3_exception_key_not_lattice.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's first exception numbers a vertex whose key is no corner key of depth 1",
+            base.with(EXCEPTIONS, |s| drop(s.splice(3..4, varint(zigzag(1_000_000))))),
+        ),
+    ];
     // An exception inserted at corner 1 that numbers vertex 1 with the key of vertex 0 (numbered
     // at corner 0), which is no split key.
-    let decoded = decode(&base[..], &DecodeOptions::default()).unwrap().hierarchy;
+    let decoded = decode(&base.file[..], &DecodeOptions::default()).unwrap().hierarchy;
     let l1 = &decoded.levels[1];
     let corners = &l1.lattice.as_ref().unwrap().vertex_corners;
     let key_of = |c: [u32; 3]| u64::from(c[0]) + 3 * u64::from(c[1]) + 9 * u64::from(c[2]);
     let k0 = key_of(corners[0]);
     let pk1 = key_of(corners[l1.mesh.faces.face(0)[1] as usize]);
-    assert!(!split_set.contains(&k0) && exc[4] >= 1, "vertex 0's key {k0} is a split key");
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], exceptions, |s| {
-        let mut head = vec![exc[0] + 1, 0, 0, exc[3], 0, 1];
-        head.extend(varint(zigzag(k0 as i64 - pk1 as i64)));
-        head.push(exc[4] - 1);
-        s.splice(0..5, head);
-    });
+    assert!(!split_keys(base).contains(&k0) && exc[4] >= 1, "vertex 0's key {k0} is a split key");
     out.push((
         "v3_key_numbered_twice.mrq",
         "§5.9",
         "invalid",
         "level 1: an exception at corner 1 numbers a second vertex under vertex 0's key, which is no split key",
-        level(p),
+        base.with(EXCEPTIONS, |s| {
+            let mut head = vec![exc[0] + 1, 0, 0, exc[3], 0, 1];
+            head.extend(varint(zigzag(k0 as i64 - pk1 as i64)));
+            head.push(exc[4] - 1);
+            s.splice(0..5, head);
+        }),
     ));
+    out
+}
 
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], choices, |s| s[0] = 100);
-    out.push((
-        "v3_choice_beyond_list.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's first choice is 100, beyond the split key's list",
-        level(p),
-    ));
+/// Level 1's split keys, decoded from their stream (a count, then the first key and gaps less one,
+/// all single bytes here).
+fn split_keys(base: &Mode3Base) -> Vec<u64> {
+    let splits = base.stream(SPLIT_KEYS);
+    let mut keys = Vec::new();
+    let mut key = 0u64;
+    for i in 0..usize::from(splits[0]) {
+        key = if i == 0 { u64::from(splits[1]) } else { key + 1 + u64::from(splits[1 + i]) };
+        keys.push(key);
+    }
+    keys
+}
 
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], split_keys, |s| *s.last_mut().unwrap() += 1);
-    out.push((
-        "v3_split_key_not_lattice.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's last split key is 27, no corner key of depth 1",
-        level(p),
-    ));
+/// Level 1's choices and split keys.
+fn mode3_split_files(base: &Mode3Base) -> Vec<Invalid> {
+    assert_eq!(split_keys(base).last(), Some(&26), "the last split key is the last key of depth 1");
+    vec![
+        (
+            "v3_choice_beyond_list.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's first choice is 100, beyond the split key's list",
+            base.with(CHOICES, |s| s[0] = 100),
+        ),
+        (
+            "v3_split_key_not_lattice.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's last split key is 27, no corner key of depth 1",
+            base.with(SPLIT_KEYS, |s| *s.last_mut().unwrap() += 1),
+        ),
+    ]
+}
 
-    let extras = read(extra_keys);
+/// Level 1's extra vertices, and a vertex count below what its corners number.
+fn mode3_extra_files(base: &Mode3Base) -> Vec<Invalid> {
+    let extras = base.stream(EXTRA_KEYS);
     assert!(extras[0] >= 1 && extras[1] < 0x80, "{extras:?}");
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], extra_keys, |s| drop(s.splice(1..2, varint(zigzag(1_000_000)))));
-    out.push((
-        "v3_extra_key_not_lattice.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's first extra vertex has a key that is no corner key of depth 1",
-        level(p),
-    ));
-
-    let mut p = good.clone();
-    p[1] = with_stream(&good[1], extra_keys, |s| s[0] += 1);
-    out.push((
-        "v3_extra_keys_count.mrq",
-        "§5.9",
-        "invalid",
-        "level 1's extra_keys count is one more than vertex_count minus the vertices its corners number",
-        level(p),
-    ));
-
+    let mut out = vec![
+        (
+            "v3_extra_key_not_lattice.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's first extra vertex has a key that is no corner key of depth 1",
+            base.with(EXTRA_KEYS, |s| drop(s.splice(1..2, varint(zigzag(1_000_000))))),
+        ),
+        (
+            "v3_extra_keys_count.mrq",
+            "§5.9",
+            "invalid",
+            "level 1's extra_keys count is one more than vertex_count minus the vertices its corners number",
+            base.with(EXTRA_KEYS, |s| s[0] += 1),
+        ),
+    ];
     // vertex_count lowered below what the corners alone number (table and block agree).
-    let mut p = good;
+    let mut p = base.payloads.clone();
     let nv = u32::from_le_bytes(p[1][4..8].try_into().unwrap()) - u32::from(extras[0]) - 1;
     p[1][4..8].copy_from_slice(&nv.to_le_bytes());
-    let info = octowrap_format::read_info(&base[..], &Limits::default()).unwrap();
+    let info = octowrap_format::read_info(&base.file[..], &Limits::default()).unwrap();
     let mut counts: Vec<(u32, u32, u32)> =
         info.levels.iter().map(|l| (l.vertex_count, l.face_count, l.corner_count)).collect();
     counts[1].0 = nv;
@@ -581,7 +615,7 @@ fn invalid_mode3_set() -> Vec<Invalid> {
         "§5.9",
         "invalid",
         "level 1's corners number one vertex more than its vertex_count",
-        reseal(&base, &p, Some(&counts)).unwrap(),
+        reseal(&base.file, &p, Some(&counts)).unwrap(),
     ));
     out
 }

@@ -11,6 +11,9 @@ use std::time::Instant;
 use octowrap_geom::DVec3;
 use octowrap_recon::{MaxLevel, ReconOptions, reconstruct_with_progress};
 
+#[path = "../src/stages.rs"]
+mod stages;
+
 /// Area-uniform samples of the dragon with Gaussian noise of `sigma` (the bench's generator).
 fn resample(mesh: &octowrap_mesh::Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let sampler = octowrap_mesh::shapes::SurfaceSampler::new(mesh);
@@ -82,22 +85,9 @@ fn main() {
         eprintln!("end {} {}", status("VmHWM:"), status("VmRSS:"));
     }
     let secs = t.elapsed().as_secs_f64();
-    for l in &r.levels {
-        let t = &l.timings;
-        println!(
-            "{:2} {:?} {:8} voxels {:8} part {:.3} reg {:.3} irr {:.3} map {:.3} relax {:.3} total {:.3}",
-            l.level,
-            l.kind,
-            l.faces,
-            l.voxels,
-            t.partitioning.as_secs_f64(),
-            t.regular.as_secs_f64(),
-            t.irregular.as_secs_f64(),
-            t.mapping.as_secs_f64(),
-            t.relaxation.as_secs_f64(),
-            t.total().as_secs_f64()
-        );
-    }
+    print!("{}", stages::stage_table(&r));
+    let voxels: Vec<String> = r.levels.iter().map(|l| l.voxels.to_string()).collect();
+    println!("voxels per level: {}", voxels.join(" "));
     // A checksum of the output, to compare runs.
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     let mut per_level = Vec::new();

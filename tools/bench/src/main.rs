@@ -23,6 +23,7 @@ mod format;
 mod io;
 mod recon;
 mod results;
+mod stages;
 mod util;
 mod validate;
 

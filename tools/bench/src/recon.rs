@@ -5,7 +5,6 @@
 //! points' bounding-box diagonal, and the wall time to build the hierarchy to that level. Then the
 //! timing targets, and the effect of relaxation on accuracy.
 
-use std::fmt::Write as _;
 use std::time::Instant;
 
 use octowrap_geom::{Aabb, DVec3};
@@ -13,6 +12,7 @@ use octowrap_mesh::Mesh;
 use octowrap_recon::{MaxLevel, ReconOptions, Reconstruction, reconstruct_with_progress};
 use rayon::prelude::*;
 
+use crate::stages::stage_table;
 use crate::util::{best_of, headline, shared_data};
 
 /// A uniform grid over items with bounding boxes, for nearest-item queries.
@@ -299,30 +299,6 @@ fn regions_effect(name: &str, points: &[DVec3], max_level: u32, region_levels: u
 fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let sampler = octowrap_mesh::shapes::SurfaceSampler::new(mesh);
     (0..n as u64).into_par_iter().map(|i| sampler.point(i, sigma)).collect()
-}
-
-/// Per-level, per-stage seconds as a markdown table.
-fn stage_table(r: &Reconstruction) -> String {
-    let mut s = String::from(
-        "| level | kind | faces | partitioning | regular | irregular | mapping | relaxation | total |\n|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for l in &r.levels {
-        let t = &l.timings;
-        let _ = writeln!(
-            s,
-            "| {} | {:?} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
-            l.level,
-            l.kind,
-            l.faces,
-            t.partitioning.as_secs_f64(),
-            t.regular.as_secs_f64(),
-            t.irregular.as_secs_f64(),
-            t.mapping.as_secs_f64(),
-            t.relaxation.as_secs_f64(),
-            t.total().as_secs_f64()
-        );
-    }
-    s
 }
 
 fn status_kb(field: &str) -> Option<f64> {

@@ -124,7 +124,6 @@ pub fn decode(
 }
 
 /// §6.2: contexts and passes of modes 0, 1 and 2.
-#[allow(clippy::too_many_lines)] // spec §6.2 step by step, both passes
 fn two_passes(
     k: usize,
     h: &BlockHeader,
@@ -133,104 +132,146 @@ fn two_passes(
     parent: Option<&Level>,
     values: &mut Values,
 ) -> Result<Vec<[i64; 3]>> {
+    let passes = TwoPasses::new(k, h, file, topo, parent);
     let nv = topo.vertex_count;
-    let level = &topo.level;
-    let corners = corner_list(&level.faces);
-    // Context: the first corner in level order that resolved to the vertex, belongs to a subface
-    // and has a canonical position.
-    let mut context: Vec<Option<usize>> = vec![None; nv];
-    if h.mode != 0 {
-        for (c, &(f, i)) in corners.iter().enumerate() {
-            let v = level.faces[f][i] as usize;
-            if context[v].is_none() && level.origins[f].is_some() && topo.pos[c].is_some() {
-                context[v] = Some(c);
+    let mut decoded = Decoded { q: vec![[0i64; 3]; nv], base: vec![[0i64; 3]; nv], param: vec![None; nv] };
+    for v in 0..nv {
+        if passes.context[v].is_some() {
+            passes.pass_a(v, values, &mut decoded)?;
+        }
+    }
+    for v in 0..nv {
+        if passes.context[v].is_none() {
+            passes.pass_b(v, values, &mut decoded)?;
+        }
+    }
+    Ok(decoded.q)
+}
+
+/// What §6.2's passes have decoded so far, per vertex: its grid point, its prediction base and its
+/// line parameter.
+struct Decoded {
+    q: Vec<[i64; 3]>,
+    base: Vec<[i64; 3]>,
+    param: Vec<Option<i64>>,
+}
+
+/// A level's vertices as §6.2's passes see them: contexts and neighbour entries.
+struct TwoPasses<'a> {
+    k: usize,
+    h: &'a BlockHeader,
+    file: FileContext,
+    topo: &'a Topology,
+    parent: Option<&'a Level>,
+    corners: Vec<(usize, usize)>,
+    /// Per vertex, its context: the first corner in level order that resolved to the vertex,
+    /// belongs to a subface and has a canonical position.
+    context: Vec<Option<usize>>,
+    /// Per vertex, per corner of it: (previous, next).
+    neighbours: Vec<Vec<(usize, usize)>>,
+}
+
+impl<'a> TwoPasses<'a> {
+    fn new(k: usize, h: &'a BlockHeader, file: FileContext, topo: &'a Topology, parent: Option<&'a Level>) -> Self {
+        let nv = topo.vertex_count;
+        let level = &topo.level;
+        let corners = corner_list(&level.faces);
+        let mut context: Vec<Option<usize>> = vec![None; nv];
+        if h.mode != 0 {
+            for (c, &(f, i)) in corners.iter().enumerate() {
+                let v = level.faces[f][i] as usize;
+                if context[v].is_none() && level.origins[f].is_some() && topo.pos[c].is_some() {
+                    context[v] = Some(c);
+                }
             }
         }
-    }
-    // Neighbour entries: per corner of v, (previous, next).
-    let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); nv];
-    for face in &level.faces {
-        let n = face.len();
-        for i in 0..n {
-            neighbours[face[i] as usize].push((face[(i + n - 1) % n] as usize, face[(i + 1) % n] as usize));
+        let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); nv];
+        for face in &level.faces {
+            let n = face.len();
+            for i in 0..n {
+                neighbours[face[i] as usize].push((face[(i + n - 1) % n] as usize, face[(i + 1) % n] as usize));
+            }
         }
+        Self { k, h, file, topo, parent, corners, context, neighbours }
     }
-    let mut q = vec![[0i64; 3]; nv];
-    let mut base = vec![[0i64; 3]; nv];
-    let mut param: Vec<Option<i64>> = vec![None; nv];
-    // Pass A.
-    for v in 0..nv {
-        let Some(c) = context[v] else { continue };
-        let (f, _) = corners[c];
-        let (p, quadrant) = level.origins[f].expect("a context lies in a subface");
-        let parent = parent.expect("a context has a parent");
+
+    /// The neighbour entries of `v`, both of each pair.
+    fn entries(&self, v: usize) -> impl Iterator<Item = usize> + '_ {
+        self.neighbours[v].iter().flat_map(|&(a, b)| [a, b])
+    }
+
+    /// Pass A for vertex `v`, which has a context.
+    fn pass_a(&self, v: usize, values: &mut Values, d: &mut Decoded) -> Result<()> {
+        let (h, topo) = (self.h, self.topo);
+        let c = self.context[v].expect("pass A takes vertices with a context");
+        let (f, _) = self.corners[c];
+        let (p, quadrant) = topo.level.origins[f].expect("a context lies in a subface");
+        let parent = self.parent.expect("a context has a parent");
         // Step 1: P from §6.4 or §6.3.
         let p_pred = if h.mode == 1 {
             subdivision_predictor(parent, p as usize, usize::from(quadrant), topo.pos[c].expect("context"))
         } else {
-            lattice_predictor(k, h, file, topo, parent, p as usize, v)
+            lattice_predictor(self.k, h, self.file, topo, parent, p as usize, v)
         };
-        base[v] = clamp3(p_pred);
+        d.base[v] = clamp3(p_pred);
         // Step 2: the local bias of counting entries.
-        let entries = neighbours[v].iter().flat_map(|&(a, b)| [a, b]);
-        let counting: Vec<usize> = entries.filter(|&u| u < v && context[u].is_some()).collect();
+        let counting: Vec<usize> = self.entries(v).filter(|&u| u < v && self.context[u].is_some()).collect();
         let point = if counting.is_empty() {
-            clamp3(base[v])
+            clamp3(d.base[v])
         } else {
             let m = counting.len() as i128;
-            let mut out = [0i64; 3];
-            for a in 0..3 {
-                let sum: i128 = counting.iter().map(|&u| i128::from(q[u][a] - base[u][a])).sum();
-                out[a] = base[v][a] + round_div(three_times_saturated(sum), 4 * m);
-            }
-            clamp3(out)
+            clamp3([0, 1, 2].map(|a| {
+                let sum: i128 = counting.iter().map(|&u| i128::from(d.q[u][a] - d.base[u][a])).sum();
+                d.base[v][a] + round_div(three_times_saturated(sum), 4 * m)
+            }))
         };
         // Step 3: the line (§6.6, pass A).
-        let (line, jpred) = if h.lines {
-            let normal = if h.mode == 1 {
-                newell_normal(parent, p as usize)
-            } else {
-                quad_normal(parent, topo.parent_quads[p as usize].0)
-            };
-            let line = Line::Float { base: base[v], u: direction(normal.map(to_f64), h.line_shift) };
-            let entries = neighbours[v].iter().flat_map(|&(a, b)| [a, b]);
-            let js: Vec<i64> = entries
-                .filter(|&u| u < v && context[u].is_some() && values.is_line_vertex(u))
-                .map(|u| param[u].expect("decoded in pass A"))
-                .collect();
-            let jpred = if js.is_empty() {
-                0
-            } else {
-                let sum: i128 = js.iter().map(|&j| i128::from(j)).sum();
-                round_div(three_times_saturated(sum), 4 * js.len() as i128)
-            };
-            (Some(line), jpred)
-        } else {
-            (None, 0)
-        };
+        let (line, jpred) = if h.lines { self.pass_a_line(v, p as usize, values, d) } else { (None, 0) };
         // Step 4.
-        (q[v], param[v]) = values.decode_vertex(v, point, line.as_ref(), jpred)?;
+        (d.q[v], d.param[v]) = values.decode_vertex(v, point, line.as_ref(), jpred)?;
+        Ok(())
     }
-    // Pass B.
-    let lattice_point = |v: usize| -> [i64; 3] {
-        match &level.vertex_corners {
-            Some(vc) if h.mode == 2 => vc[v].map(|x| ((u64::from(x) << file.grid_bits) >> k) as i64),
+
+    /// §6.6, pass A: the line of vertex `v` under parent face `p`, and its parameter's prediction.
+    fn pass_a_line(&self, v: usize, p: usize, values: &Values, d: &Decoded) -> (Option<Line>, i64) {
+        let parent = self.parent.expect("a context has a parent");
+        let normal =
+            if self.h.mode == 1 { newell_normal(parent, p) } else { quad_normal(parent, self.topo.parent_quads[p].0) };
+        let line = Line::Float { base: d.base[v], u: direction(normal.map(to_f64), self.h.line_shift) };
+        let js: Vec<i64> = self
+            .entries(v)
+            .filter(|&u| u < v && self.context[u].is_some() && values.is_line_vertex(u))
+            .map(|u| d.param[u].expect("decoded in pass A"))
+            .collect();
+        let jpred = if js.is_empty() {
+            0
+        } else {
+            let sum: i128 = js.iter().map(|&j| i128::from(j)).sum();
+            round_div(three_times_saturated(sum), 4 * js.len() as i128)
+        };
+        (Some(line), jpred)
+    }
+
+    /// The lattice point of vertex `v` (mode 2), the origin otherwise.
+    fn lattice_point(&self, v: usize) -> [i64; 3] {
+        match &self.topo.level.vertex_corners {
+            Some(vc) if self.h.mode == 2 => vc[v].map(|x| ((u64::from(x) << self.file.grid_bits) >> self.k) as i64),
             _ => [0; 3],
         }
-    };
-    for v in 0..nv {
-        if context[v].is_some() {
-            continue;
-        }
+    }
+
+    /// Pass B for vertex `v`, which has no context.
+    fn pass_b(&self, v: usize, values: &mut Values, d: &mut Decoded) -> Result<()> {
+        let h = self.h;
+        let q = &d.q;
         // Step 1: §6.5.
-        let counts = |u: usize| context[u].is_some() || u < v;
-        let entries = neighbours[v].iter().flat_map(|&(a, b)| [a, b]);
-        let counting: Vec<usize> = entries.filter(|&u| counts(u)).collect();
-        let lv = lattice_point(v);
+        let counts = |u: usize| self.context[u].is_some() || u < v;
+        let counting: Vec<usize> = self.entries(v).filter(|&u| counts(u)).collect();
+        let lv = self.lattice_point(v);
         let pred = if !counting.is_empty() {
             let m = counting.len() as i128;
             [0, 1, 2].map(|a| {
-                let sum: i128 = counting.iter().map(|&u| i128::from(q[u][a] - lattice_point(u)[a])).sum();
+                let sum: i128 = counting.iter().map(|&u| i128::from(q[u][a] - self.lattice_point(u)[a])).sum();
                 lv[a] + round_div(sum, m)
             })
         } else if h.mode == 2 {
@@ -244,7 +285,7 @@ fn two_passes(
         // Step 2: the line (§6.6, pass B): the fan of counting neighbours around `b`.
         let line = h.lines.then(|| {
             let mut n = [0i128; 3];
-            for &(a, c) in &neighbours[v] {
+            for &(a, c) in &self.neighbours[v] {
                 if counts(a) && counts(c) {
                     let f = cross128(wide(sub3(q[c], b)), wide(sub3(q[a], b)));
                     n = [n[0] + f[0], n[1] + f[1], n[2] + f[2]];
@@ -253,9 +294,9 @@ fn two_passes(
             Line::Float { base: b, u: direction(n.map(to_f64), h.line_shift) }
         });
         // Step 3.
-        (q[v], param[v]) = values.decode_vertex(v, b, line.as_ref(), 0)?;
+        (d.q[v], d.param[v]) = values.decode_vertex(v, b, line.as_ref(), 0)?;
+        Ok(())
     }
-    Ok(q)
 }
 
 /// §6.3: the lattice predictors of mode 2 for vertex `v` under parent face `p`.

@@ -524,31 +524,113 @@ enum Entry {
     List(Vec<u32>),
 }
 
-#[allow(clippy::too_many_lines)] // spec §5.9 step by step
+/// Mode 3's numbering state (§5.9 step 3): the key table and the corners of the vertices
+/// numbered so far.
+struct Numbering {
+    k: usize,
+    vertex_count: usize,
+    table: BTreeMap<u64, Entry>,
+    vertex_corners: Vec<[u32; 3]>,
+}
+
+impl Numbering {
+    /// Step 2: the split keys, each with an empty list.
+    fn new(k: usize, h: &BlockHeader, split_keys: &mut Stream<'_>) -> Result<Self> {
+        let mut table = BTreeMap::new();
+        let ns = split_keys.varint_at_most(h.corner_count as u64, "split key count")?;
+        let mut key = None;
+        for _ in 0..ns {
+            let gap = split_keys.varint()?;
+            key = gap_next(key, gap);
+            let Some(x) = key.filter(|&x| corner_of_key(x, k).is_some()) else {
+                return invalid("split key is no valid corner key");
+            };
+            table.insert(x, Entry::List(Vec::new()));
+        }
+        Ok(Self { k, vertex_count: h.vertex_count, table, vertex_corners: Vec::new() })
+    }
+
+    /// Step 3: numbers the next vertex, at `key`.
+    fn number(&mut self, key: u64) -> Result<u32> {
+        let vc = &mut self.vertex_corners;
+        require(vc.len() < self.vertex_count, || "corners number more than vertex_count vertices".into())?;
+        vc.push(corner_of_key(key, self.k).expect("a valid key"));
+        Ok(vc.len() as u32 - 1)
+    }
+
+    /// Step 5, an exception corner whose predicted key is `pk`: a vertex numbered before, or a
+    /// new one at `pk` plus a delta, registered under its key.
+    fn exception(&mut self, pk: u64, exceptions: &mut Stream<'_>) -> Result<u32> {
+        let next = self.vertex_corners.len() as u64;
+        let v = exceptions.varint()?;
+        require(v <= next, || format!("exception vertex {v} beyond next {next}"))?;
+        if v < next {
+            return Ok(v as u32);
+        }
+        let delta = exceptions.signed()?;
+        let key = i128::from(pk) + i128::from(delta);
+        let key = u64::try_from(key).ok().filter(|&x| corner_of_key(x, self.k).is_some());
+        let Some(key) = key else { return invalid("exception key is no valid corner key") };
+        let v = self.number(key)?;
+        match self.table.get_mut(&key) {
+            Some(Entry::List(list)) => list.push(v),
+            Some(Entry::Vertex(_)) => return invalid(format!("key {key} numbered twice")),
+            None => {
+                self.table.insert(key, Entry::Vertex(v));
+            }
+        }
+        Ok(v)
+    }
+
+    /// Step 5, any other corner: the vertex registered under its key `pk`, a choice from a split
+    /// key's list (or a new vertex appended to it), or a new vertex registered under `pk`.
+    fn ordinary(&mut self, pk: u64, choices: &mut Stream<'_>) -> Result<u32> {
+        let list_len = match self.table.get(&pk) {
+            Some(Entry::Vertex(v)) => return Ok(*v),
+            Some(Entry::List(list)) => list.len(),
+            None => {
+                let v = self.number(pk)?;
+                self.table.insert(pk, Entry::Vertex(v));
+                return Ok(v);
+            }
+        };
+        let o = choices.varint()?;
+        let m = list_len as u64;
+        require(o <= m, || format!("choice {o} beyond a list of {m}"))?;
+        if o < m {
+            let Some(Entry::List(list)) = self.table.get(&pk) else { unreachable!("a list above") };
+            return Ok(list[o as usize]);
+        }
+        let v = self.number(pk)?;
+        if let Some(Entry::List(list)) = self.table.get_mut(&pk) {
+            list.push(v);
+        }
+        Ok(v)
+    }
+
+    /// Step 6: the extra vertices, numbered after the corners' and not registered.
+    fn extras(mut self, extra_keys: &mut Stream<'_>) -> Result<Vec<[u32; 3]>> {
+        let e = extra_keys.varint()?;
+        require(e == (self.vertex_count - self.vertex_corners.len()) as u64, || "extra_keys count".into())?;
+        let mut key = 0i128;
+        for _ in 0..e {
+            key += i128::from(extra_keys.signed()?);
+            let c = u64::try_from(key).ok().and_then(|x| corner_of_key(x, self.k));
+            let Some(c) = c else { return invalid("extra key is no valid corner key") };
+            self.vertex_corners.push(c);
+        }
+        Ok(self.vertex_corners)
+    }
+}
+
+/// Mode 3 (§5.9), step by step.
 pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -> Result<Topology> {
     let nc = h.corner_count as u64;
     // Step 1.
     let lf = lattice_faces(k, h, st, parent)?;
     let mut cpos = lf.pos.clone();
-    // Step 2: split keys.
-    let mut table: BTreeMap<u64, Entry> = BTreeMap::new();
-    let ns = st[SPLIT_KEYS].varint_at_most(nc, "split key count")?;
-    let mut key = None;
-    for _ in 0..ns {
-        let gap = st[SPLIT_KEYS].varint()?;
-        key = gap_next(key, gap);
-        let Some(x) = key.filter(|&x| corner_of_key(x, k).is_some()) else {
-            return invalid("split key is no valid corner key");
-        };
-        table.insert(x, Entry::List(Vec::new()));
-    }
-    // Step 3: numbering and registering.
-    let mut vertex_corners: Vec<[u32; 3]> = Vec::new();
-    let number = |vc: &mut Vec<[u32; 3]>, key: u64| -> Result<u32> {
-        require(vc.len() < h.vertex_count, || "corners number more than vertex_count vertices".into())?;
-        vc.push(corner_of_key(key, k).expect("a valid key"));
-        Ok(vc.len() as u32 - 1)
-    };
+    // Steps 2 and 3.
+    let mut numbering = Numbering::new(k, h, &mut st[SPLIT_KEYS])?;
     // Step 4: the exception count, and the first exception's corner.
     let count = st[EXCEPTIONS].varint_at_most(nc, "exception count")?;
     let mut left = count;
@@ -559,72 +641,22 @@ pub fn mode3(k: usize, h: &BlockHeader, st: &mut [Stream<'_>], parent: &Level) -
     // Step 5: resolution.
     let mut indices = Vec::with_capacity(h.corner_count);
     for (c, &pk) in lf.pk.iter().enumerate() {
-        if next_exception == Some(c as u64) {
-            let next = vertex_corners.len() as u64;
-            let v = st[EXCEPTIONS].varint()?;
-            require(v <= next, || format!("exception vertex {v} beyond next {next}"))?;
-            let v = if v == next {
-                let delta = st[EXCEPTIONS].signed()?;
-                let key = i128::from(pk) + i128::from(delta);
-                let key = u64::try_from(key).ok().filter(|&x| corner_of_key(x, k).is_some());
-                let Some(key) = key else { return invalid("exception key is no valid corner key") };
-                let v = number(&mut vertex_corners, key)?;
-                match table.get_mut(&key) {
-                    Some(Entry::List(list)) => list.push(v),
-                    Some(Entry::Vertex(_)) => return invalid(format!("key {key} numbered twice")),
-                    None => {
-                        table.insert(key, Entry::Vertex(v));
-                    }
-                }
-                v
-            } else {
-                v as u32
-            };
-            cpos[c] = None;
-            indices.push(v);
-            left -= 1;
-            next_exception = if left > 0 {
-                let gap = st[EXCEPTIONS].varint()?;
-                Some(gap_next(Some(c as u64), gap).unwrap_or(u64::MAX))
-            } else {
-                None
-            };
+        if next_exception != Some(c as u64) {
+            indices.push(numbering.ordinary(pk, &mut st[CHOICES])?);
             continue;
         }
-        let v = match table.get_mut(&pk) {
-            Some(Entry::Vertex(v)) => *v,
-            Some(Entry::List(list)) => {
-                let o = st[CHOICES].varint()?;
-                let m = list.len() as u64;
-                require(o <= m, || format!("choice {o} beyond a list of {m}"))?;
-                if o < m {
-                    list[o as usize]
-                } else {
-                    let v = number(&mut vertex_corners, pk)?;
-                    if let Some(Entry::List(list)) = table.get_mut(&pk) {
-                        list.push(v);
-                    }
-                    v
-                }
-            }
-            None => {
-                let v = number(&mut vertex_corners, pk)?;
-                table.insert(pk, Entry::Vertex(v));
-                v
-            }
+        indices.push(numbering.exception(pk, &mut st[EXCEPTIONS])?);
+        cpos[c] = None;
+        left -= 1;
+        next_exception = if left > 0 {
+            let gap = st[EXCEPTIONS].varint()?;
+            Some(gap_next(Some(c as u64), gap).unwrap_or(u64::MAX))
+        } else {
+            None
         };
-        indices.push(v);
     }
     require(next_exception.is_none(), || "exception corner beyond corner_count".into())?;
-    // Step 6: extra vertices, not registered.
-    let e = st[EXTRA_KEYS].varint()?;
-    require(e == (h.vertex_count - vertex_corners.len()) as u64, || "extra_keys count".into())?;
-    let mut key = 0i128;
-    for _ in 0..e {
-        key += i128::from(st[EXTRA_KEYS].signed()?);
-        let c = u64::try_from(key).ok().and_then(|x| corner_of_key(x, k));
-        let Some(c) = c else { return invalid("extra key is no valid corner key") };
-        vertex_corners.push(c);
-    }
+    // Step 6.
+    let vertex_corners = numbering.extras(&mut st[EXTRA_KEYS])?;
     Ok(lattice_topology(h, lf, &indices, vertex_corners, cpos))
 }
