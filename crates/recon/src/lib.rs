@@ -305,6 +305,20 @@ pub enum Error {
         /// Distinct positions needed.
         needed: usize,
     },
+    /// The points span an extent the local frame cannot normalise: a subnormal one (whose
+    /// reciprocal is infinite) or one too large to pad.
+    #[error(
+        "the points span {extent:.3e}, outside the extent {min:.3e} to {max:.3e} that 64-bit coordinates can normalise; \
+         rescale them"
+    )]
+    ExtentOutOfRange {
+        /// The largest side of the points' bounding box.
+        extent: f64,
+        /// The smallest extent supported.
+        min: f64,
+        /// The largest extent supported.
+        max: f64,
+    },
     /// More points than 32-bit indices can hold.
     #[error("{count} points; at most {max} are supported")]
     TooManyPoints {

@@ -20,6 +20,7 @@ use std::ops::Range;
 use octowrap_geom::{Aabb, DVec3, Moments, glam::Vec3, morton};
 use rayon::prelude::*;
 
+use crate::Error;
 use crate::rankmap::RankMap;
 
 /// Bits per axis of the full-depth codes.
@@ -251,6 +252,8 @@ pub(crate) struct Octree {
     pub levels: Vec<Cells>,
     /// Number of distinct quantised positions.
     pub distinct: usize,
+    /// The largest side of the points' bounding box, in world units.
+    pub extent: f64,
 }
 
 impl Octree {
@@ -262,6 +265,7 @@ impl Octree {
     /// their input order.
     pub(crate) fn new(points: &[DVec3], padding: f64) -> Self {
         let bounds = points.par_chunks(1 << 16).map(Aabb::from_points).reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        let extent = bounds.size().max_element();
         let cube = bounds.bounding_cube(padding).unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE });
         let frame = Frame { origin: cube.min, edge: cube.size().x };
         let inv = 1.0 / frame.edge;
@@ -302,7 +306,21 @@ impl Octree {
             index: RankMap::from_sorted(&[0]),
             filled: Vec::new(),
         };
-        Self { frame, points: local, codes, split, levels: vec![root], distinct }
+        Self { frame, points: local, codes, split, levels: vec![root], distinct, extent }
+    }
+
+    /// Whether the points can span a surface: an extent that the local frame can normalise (a
+    /// subnormal one has no finite reciprocal; one past `f64::MAX / 3` overflows once padded),
+    /// and at least `needed` distinct quantised positions.
+    pub(crate) fn check(&self, needed: usize) -> Result<(), Error> {
+        let (min, max) = (f64::MIN_POSITIVE, f64::MAX / 3.0);
+        if self.extent != 0.0 && !(min..=max).contains(&self.extent) {
+            return Err(Error::ExtentOutOfRange { extent: self.extent, min, max });
+        }
+        if self.distinct < needed {
+            return Err(Error::TooFewDistinct { distinct: self.distinct, needed });
+        }
+        Ok(())
     }
 
     /// Frees the points and the voxels of every level (the frame stays).
@@ -521,6 +539,28 @@ pub(crate) const BLOCK: [[i32; 3]; 27] = {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_extent_beyond_normalisation_is_named() {
+        // 3,000 distinct points within a subnormal extent: 1 / extent is infinite.
+        let tiny: Vec<DVec3> =
+            (0..3000).map(|k| DVec3::new(f64::from(k) * 1e-312, 0.0, f64::from(k % 7) * 1e-312)).collect();
+        let e = crate::reconstruct(&tiny, &crate::ReconOptions::default()).unwrap_err();
+        assert!(
+            matches!(e, Error::ExtentOutOfRange { extent, .. } if extent > 0.0 && extent < f64::MIN_POSITIVE),
+            "{e}"
+        );
+        assert!(e.to_string().starts_with("the points span 2.999e-309, outside the extent"), "{e}");
+        // The unit cube plus two points at +-1.7e308: the extent overflows.
+        let mut far: Vec<DVec3> = (0..3000).map(|k| DVec3::splat(f64::from(k) / 3000.0)).collect();
+        far.extend([DVec3::splat(1.7e308), DVec3::splat(-1.7e308)]);
+        let e = crate::reconstruct(&far, &crate::ReconOptions::default()).unwrap_err();
+        assert!(matches!(e, Error::ExtentOutOfRange { extent, .. } if extent.is_infinite()), "{e}");
+        // Coincident points keep their own message.
+        let same = vec![DVec3::splat(1e-312); 10];
+        let e = crate::reconstruct(&same, &crate::ReconOptions::default()).unwrap_err();
+        assert_eq!(e, Error::TooFewDistinct { distinct: 1, needed: 3 });
+    }
 
     /// A sheet of voxel centres at level 4 with voxel (7, 7, 8) left out, `per` points per voxel.
     fn sheet_with_gap(per: usize) -> Octree {

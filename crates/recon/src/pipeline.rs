@@ -117,9 +117,7 @@ impl<'a> Run<'a> {
         let t = Instant::now();
         progress(Progress { level: 0, levels: 0, stage: Stage::Partitioning });
         let tree = Octree::new(points, padding);
-        if tree.distinct < 3 {
-            return Err(Error::TooFewDistinct { distinct: tree.distinct, needed: 3 });
-        }
+        tree.check(3)?;
         let mut run = Run {
             opts,
             tree,
