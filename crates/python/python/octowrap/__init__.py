@@ -27,13 +27,19 @@ True
 
 from __future__ import annotations
 
-import json
 import operator
 import os
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
+# numpy, typing and json are imported where they are used, not here: together they are most of
+# the time `import octowrap` would take (the .pyi stub carries the types for checkers).
+TYPE_CHECKING = False
 if TYPE_CHECKING:
+    from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
     import numpy as np
+
+    Faces = Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]
+    MeshSource = Union["Mesh", "Hierarchy", "MrqFile", np.ndarray]
 
 from . import _octowrap
 from ._octowrap import FORMAT_VERSION, FormatError, __version__
@@ -59,8 +65,6 @@ __all__ = [
 
 #: Extensions (without the dot) that :func:`write` writes.
 WRITABLE_FORMATS: Tuple[str, ...] = tuple(_octowrap.writable_extensions())
-
-Faces = Union["np.ndarray", Tuple["np.ndarray", "np.ndarray"]]
 
 
 def _faces_from_csr(offsets: np.ndarray, indices: np.ndarray, k: Optional[int]) -> Faces:
@@ -325,6 +329,8 @@ class MrqFile:
 
     def __init__(self, raw: Any) -> None:
         self._raw = raw
+        import json
+
         self.info: Dict[str, Any] = json.loads(raw.info_json())
 
     def __len__(self) -> int:
@@ -453,6 +459,8 @@ def validate(
     """
     if isinstance(require, str):
         require = [require]
+    import json
+
     report = json.loads(
         _octowrap.validate(vertices, faces, list(require), weld, self_intersections, max_elements)
     )
@@ -464,8 +472,6 @@ def _mesh_from_raw(raw: tuple) -> Mesh:
     positions, normals, colors, _intensities, offsets, indices, k = raw
     return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
 
-
-MeshSource = Union[Mesh, Hierarchy, MrqFile, "np.ndarray"]
 
 
 def _mesh_arrays(data: Any, faces: Optional[Faces], function: str) -> Tuple[Any, Any, Any, Any]:
@@ -563,6 +569,8 @@ def decimate(
     else:
         vertices, faces, normals, colors = _mesh_arrays(data, faces, "decimate")
     value, relative = _error_bound(max_error)
+    import json
+
     camera = None
     if view is not None:
         if isinstance(view, dict):
@@ -632,6 +640,8 @@ def export_glb(
     ...
     ValueError: levels must be "finest", "all" or a level number (0 = coarsest), not 'some'
     """
+    import json
+
     raw_h = None
     vertices = normals = vertex_colors = None
     pairs: List[Tuple[str, str]] = []
