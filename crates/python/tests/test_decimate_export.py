@@ -2,6 +2,8 @@
 
 import json
 import subprocess
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -204,3 +206,39 @@ def test_bad_cut_and_export_options_are_value_errors(tmp_path, hierarchy):
     with pytest.raises(FileNotFoundError):
         octowrap.export_glb(hierarchy, path=tmp_path / "missing" / "x.glb")
     assert not list(tmp_path.iterdir())
+
+
+def ticks_during(work):
+    """How often a thread sleeping 1 ms per tick ticks while ``work()`` runs, and the seconds it took."""
+    ticks = 0
+    stop = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not stop.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    time.sleep(0.05)
+    before = ticks
+    start = time.perf_counter()
+    work()
+    seconds = time.perf_counter() - start
+    during = ticks - before
+    stop.set()
+    t.join()
+    return during, seconds
+
+
+def test_the_gil_is_released_while_decimating_and_exporting():
+    finest = octowrap.reconstruct(sphere(60_000, seed=13), max_level=6)[6]
+    for name, work in [
+        ("decimate", lambda: [octowrap.decimate(finest, ratio=r) for r in (0.05, 0.1, 0.2)]),
+        ("export_glb", lambda: [octowrap.export_glb(finest, meshopt=True, quantize=True, crease_angle=c) for c in (30.0, 40.0, 50.0)]),
+    ]:
+        during, seconds = ticks_during(work)
+        assert seconds > 0.2, f"{name}: the input is too small to tell ({seconds:.3f} s)"
+        # A call holding the GIL would leave the thread no tick at all.
+        assert during > seconds * 100, (name, during, seconds)
