@@ -87,6 +87,12 @@ def test_cut_gives_the_command_line_bytes_and_report(tmp_path, hierarchy):
         assert without_names(report) == without_names(report_cli), args
         assert report["mode"] == "cut" and sum(report["cut"]["faces_per_level"]) == report["output_faces"]
         assert octowrap.validate(cut.vertices, cut.faces, require=["watertight", "oriented"])["passed"], args
+    # With a face target the finest level is decimated, as the command line does with an MRQ file.
+    report_cli = json.loads(run_cli("decimate", mrq, "-o", tmp_path / "cli.ply", "--json", "--ratio", "0.5"))
+    small, report = octowrap.decimate(f, ratio=0.5)
+    octowrap.write(tmp_path / "py.ply", small)
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+    assert without_names(report) == without_names(report_cli) and report["mode"] == "decimate"
     # The camera may also be a file; a reconstructed hierarchy cuts like the decoded one.
     by_file, _ = octowrap.decimate(f, view=tmp_path / "camera.json")
     by_dict, _ = octowrap.decimate(f, view=camera)
