@@ -81,12 +81,11 @@ pub fn decimate<'py>(
         (Some(text), Some(_)) => Some(Camera::from_json(text).map_err(|e| bad(e.to_string()))?),
         (None, _) => None,
     };
-    let input: Cow<'_, Mesh> = match hierarchy {
-        Some(h) => Cow::Borrowed(&h.levels.last().ok_or_else(|| bad("the hierarchy holds no levels"))?.mesh),
-        None => {
-            let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
-            Cow::Owned(meshes::mesh_from(v, "vertices", faces, normals, colors, None)?)
-        }
+    let input: Cow<'_, Mesh> = if let Some(h) = hierarchy {
+        Cow::Borrowed(&h.levels.last().ok_or_else(|| bad("the hierarchy holds no levels"))?.mesh)
+    } else {
+        let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
+        Cow::Owned(meshes::mesh_from(v, "vertices", faces, normals, colors, None)?)
     };
     if input.faces.is_empty() {
         return Err(bad("the mesh has no faces: decimation needs a mesh, not a point cloud"));

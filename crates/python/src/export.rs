@@ -110,17 +110,16 @@ pub fn export_glb<'py>(
     opts.max_screen_error = screen_error / 1080.0;
     opts.metadata = metadata;
     let single;
-    let h: &Hierarchy = match &hierarchy {
-        Some(raw) => &raw.get().hierarchy,
-        None => {
-            let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
-            let mesh = meshes::mesh_from(v, "vertices", faces, normals, colors, None)?;
-            if let Err(e) = mesh.check_indices() {
-                return Err(bad(format!("broken input: {e} (octowrap.validate describes every defect)")));
-            }
-            single = Hierarchy::single(mesh);
-            &single
+    let h: &Hierarchy = if let Some(raw) = &hierarchy {
+        &raw.get().hierarchy
+    } else {
+        let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
+        let mesh = meshes::mesh_from(v, "vertices", faces, normals, colors, None)?;
+        if let Err(e) = mesh.check_indices() {
+            return Err(bad(format!("broken input: {e} (octowrap.validate describes every defect)")));
         }
+        single = Hierarchy::single(mesh);
+        &single
     };
     // The target is checked before the work, as `octowrap export` checks it.
     let file_opts = octowrap_fsutil::WriteOptions::default();
