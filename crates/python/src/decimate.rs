@@ -12,26 +12,23 @@ use pyo3::prelude::*;
 use serde_json::{Map, Value, json};
 
 use crate::hierarchy::RawHierarchy;
-use crate::meshes::{self, MeshTuple};
+use crate::meshes::{self, MeshArgs, MeshTuple};
 
 fn bad(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
 }
 
-/// Decimates a mesh given as arrays (`vertices`, `faces`, `normals`, `colors`), or a hierarchy:
+/// Decimates a mesh given as arrays ([`MeshArgs`]), or a hierarchy:
 /// cut through its levels with `max_error` alone or `view`, else its finest level decimated.
 /// `max_error` is a length, or a fraction of the bounding-box diagonal when `max_error_relative`;
 /// `view` is the camera's JSON; `quads` is `auto`, `quads` or `triangles`. Returns the mesh and
 /// the report `octowrap decimate --json` prints (without the file names) as JSON.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, normals, colors, hierarchy, target_faces, ratio, max_error, max_error_relative, view, lock_border, quads, measure))]
+#[pyo3(signature = (mesh, hierarchy, target_faces, ratio, max_error, max_error_relative, view, lock_border, quads, measure))]
 #[allow(clippy::too_many_arguments, clippy::needless_pass_by_value, clippy::fn_params_excessive_bools)]
 pub fn decimate<'py>(
     py: Python<'py>,
-    vertices: Option<&Bound<'py, PyAny>>,
-    faces: Option<&Bound<'py, PyAny>>,
-    normals: Option<&Bound<'py, PyAny>>,
-    colors: Option<&Bound<'py, PyAny>>,
+    mesh: Option<MeshArgs<'py>>,
     hierarchy: Option<Bound<'py, RawHierarchy>>,
     target_faces: Option<usize>,
     ratio: Option<f64>,
@@ -84,14 +81,10 @@ pub fn decimate<'py>(
     let input: Cow<'_, Mesh> = if let Some(h) = hierarchy {
         Cow::Borrowed(&h.levels.last().ok_or_else(|| bad("the hierarchy holds no levels"))?.mesh)
     } else {
-        let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
-        Cow::Owned(meshes::mesh_from(v, "vertices", faces, normals, colors, None)?)
+        Cow::Owned(meshes::sound_mesh(mesh.as_ref().ok_or_else(|| bad("give a mesh or a hierarchy"))?)?)
     };
     if input.faces.is_empty() {
         return Err(bad("the mesh has no faces: decimation needs a mesh, not a point cloud"));
-    }
-    if let Err(e) = input.check_indices() {
-        return Err(bad(format!("broken input: {e} (octowrap.validate describes every defect)")));
     }
     let input = &*input;
     let bound = max_error.map(|e| if max_error_relative { ErrorBound::Relative(e) } else { ErrorBound::Absolute(e) });

@@ -10,8 +10,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyString};
 use serde_json::json;
 
+use crate::errors;
 use crate::hierarchy::RawHierarchy;
-use crate::{errors, meshes};
+use crate::meshes::{self, MeshArgs};
 
 fn bad(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
@@ -64,19 +65,16 @@ fn summary_json(s: &Summary) -> String {
     .to_string()
 }
 
-/// Exports a mesh given as arrays (`vertices`, `faces`, `normals`, `colors`) or a hierarchy as
+/// Exports a mesh given as arrays ([`MeshArgs`]) or a hierarchy as
 /// GLB; the options are `ExportOptions`' fields (`screen_error` in pixels of a 1080-pixel-high
 /// view). With `path`, the bytes are also written there (to a temporary file renamed into place).
 /// Returns the bytes and the summary as JSON.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, normals, colors, hierarchy, levels, quantize, meshopt, crease_angle, with_colors, screen_error, metadata, path))]
+#[pyo3(signature = (mesh, hierarchy, levels, quantize, meshopt, crease_angle, with_colors, screen_error, metadata, path))]
 #[allow(clippy::too_many_arguments, clippy::needless_pass_by_value, clippy::fn_params_excessive_bools)]
 pub fn export_glb<'py>(
     py: Python<'py>,
-    vertices: Option<&Bound<'py, PyAny>>,
-    faces: Option<&Bound<'py, PyAny>>,
-    normals: Option<&Bound<'py, PyAny>>,
-    colors: Option<&Bound<'py, PyAny>>,
+    mesh: Option<MeshArgs<'py>>,
     hierarchy: Option<Bound<'py, RawHierarchy>>,
     levels: &Bound<'py, PyAny>,
     quantize: bool,
@@ -113,11 +111,7 @@ pub fn export_glb<'py>(
     let h: &Hierarchy = if let Some(raw) = &hierarchy {
         &raw.get().hierarchy
     } else {
-        let v = vertices.ok_or_else(|| bad("give vertices and faces, or a hierarchy"))?;
-        let mesh = meshes::mesh_from(v, "vertices", faces, normals, colors, None)?;
-        if let Err(e) = mesh.check_indices() {
-            return Err(bad(format!("broken input: {e} (octowrap.validate describes every defect)")));
-        }
+        let mesh = meshes::sound_mesh(mesh.as_ref().ok_or_else(|| bad("give a mesh or a hierarchy"))?)?;
         single = Hierarchy::single(mesh);
         &single
     };

@@ -10,26 +10,13 @@ use pyo3::prelude::*;
 
 use crate::{arrays, errors};
 
-/// What `read` hands to the Python side: a [`MeshTuple`]'s arrays and the format read.
-type ReadResult<'py> = (
-    Bound<'py, PyArray2<f64>>,
-    Option<Bound<'py, PyArray2<f32>>>,
-    Option<Bound<'py, PyArray2<u8>>>,
-    Option<Bound<'py, PyArray1<f32>>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Option<usize>,
-    &'static str,
-);
-
 /// Reads a point cloud or mesh (format from the content, else the extension), GIL released.
 #[pyfunction]
 #[allow(clippy::needless_pass_by_value)] // pyo3 hands over extracted arguments by value
-pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<ReadResult<'_>> {
+pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<(MeshTuple<'_>, &'static str)> {
     let read = py.detach(|| octowrap_io::read_path_detected(&path, &ReadOptions::default()));
     let (format, mesh) = read.map_err(|e| errors::io_error(&e, &path, true))?;
-    let (positions, normals, colors, intensities, offsets, indices, k) = mesh_out(py, mesh);
-    Ok((positions, normals, colors, intensities, offsets, indices, k, format.name()))
+    Ok((mesh_out(py, mesh), format.name()))
 }
 
 /// A mesh handed to Python: positions, normals, colours, intensities, face offsets, face indices
@@ -58,6 +45,21 @@ pub fn mesh_out(py: Python<'_>, mesh: Mesh) -> MeshTuple<'_> {
         indices,
         k,
     )
+}
+
+/// A mesh as Python passes it to `decimate` and `export_glb`: vertices, faces, normals, colours
+/// (the last two `None` when absent).
+pub type MeshArgs<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
+
+/// The mesh of `args`, refused unless every face index is in range and every face has 3 or more
+/// corners (the command line refuses such input files in the same words).
+pub fn sound_mesh(args: &MeshArgs<'_>) -> PyResult<Mesh> {
+    let (vertices, faces, normals, colors) = args;
+    let mesh = mesh_from(vertices, "vertices", Some(faces), Some(normals), Some(colors), None)?;
+    if let Err(e) = mesh.check_indices() {
+        return Err(PyValueError::new_err(format!("broken input: {e} (octowrap.validate describes every defect)")));
+    }
+    Ok(mesh)
 }
 
 /// A mesh from Python's arrays (each copied once): positions (named `positions_name` in errors), then faces, normals, colours and

@@ -2,14 +2,12 @@
 
 import json
 import subprocess
-import threading
-import time
 
 import numpy as np
 import pytest
 
 import octowrap
-from conftest import data, octowrap_bin, sphere
+from conftest import data, octowrap_bin, sphere, ticks_during
 
 
 @pytest.fixture(scope="module")
@@ -212,30 +210,6 @@ def test_bad_cut_and_export_options_are_value_errors(tmp_path, hierarchy):
     with pytest.raises(FileNotFoundError):
         octowrap.export_glb(hierarchy, path=tmp_path / "missing" / "x.glb")
     assert not list(tmp_path.iterdir())
-
-
-def ticks_during(work):
-    """How often a thread sleeping 1 ms per tick ticks while ``work()`` runs, and the seconds it took."""
-    ticks = 0
-    stop = threading.Event()
-
-    def count():
-        nonlocal ticks
-        while not stop.is_set():
-            ticks += 1
-            time.sleep(0.001)
-
-    t = threading.Thread(target=count)
-    t.start()
-    time.sleep(0.05)
-    before = ticks
-    start = time.perf_counter()
-    work()
-    seconds = time.perf_counter() - start
-    during = ticks - before
-    stop.set()
-    t.join()
-    return during, seconds
 
 
 def test_the_gil_is_released_while_decimating_and_exporting():

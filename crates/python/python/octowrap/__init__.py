@@ -350,6 +350,11 @@ class MrqFile:
         return Hierarchy(self._raw.hierarchy(k))
 
 
+def _mesh_from_raw(raw: tuple) -> Mesh:
+    positions, normals, colors, _intensities, offsets, indices, k = raw
+    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
+
+
 def read(path: Union[str, os.PathLike]) -> Union[PointCloud, Mesh]:
     """Reads a point cloud or mesh: PLY, OBJ, OFF, STL, XYZ/PTS, PCD, LAS/LAZ, E57, EXR, .conf.
 
@@ -362,10 +367,11 @@ def read(path: Union[str, os.PathLike]) -> Union[PointCloud, Mesh]:
     ...
     FileNotFoundError: [Errno 2] missing.ply: i/o error: No such file or directory (os error 2): 'missing.ply'
     """
-    positions, normals, colors, intensities, offsets, indices, k, _format = _octowrap.read(os.fspath(path))
+    raw, _format = _octowrap.read(os.fspath(path))
+    positions, normals, colors, intensities, offsets, _indices, _k = raw
     if len(offsets) == 1:
         return PointCloud(positions, normals, colors, intensities)
-    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
+    return _mesh_from_raw(raw)
 
 
 def write(path: Union[str, os.PathLike], data: Union[PointCloud, Mesh], ascii: bool = False) -> None:
@@ -468,18 +474,21 @@ def validate(
     return report
 
 
-def _mesh_from_raw(raw: tuple) -> Mesh:
-    positions, normals, colors, _intensities, offsets, indices, k = raw
-    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
 
-
-
-def _mesh_arrays(data: Any, faces: Optional[Faces], function: str) -> Tuple[Any, Any, Any, Any]:
-    """``(vertices, faces, normals, colors)`` of a :class:`Mesh`, or of arrays given as they are."""
+def _source(data: Any, faces: Optional[Faces], function: str) -> Tuple[Optional[tuple], Any]:
+    """``(mesh, hierarchy)`` for the compiled module, one of them ``None``: a :class:`Mesh`, or
+    vertex and face arrays, as ``(vertices, faces, normals, colors)``; a :class:`Hierarchy` (or
+    an :class:`MrqFile`, decoded whole) as the hierarchy it holds."""
+    if isinstance(data, MrqFile):
+        data = data.hierarchy()
+    if isinstance(data, Hierarchy):
+        if faces is not None:
+            raise ValueError(f"{function}: a Hierarchy brings its own faces; pass faces only with a vertex array")
+        return None, data._raw
     if isinstance(data, Mesh):
         if faces is not None:
             raise ValueError(f"{function}: faces come with the Mesh; pass faces only with a vertex array")
-        return data.vertices, data.faces, data.normals, data.colors
+        return (data.vertices, data.faces, data.normals, data.colors), None
     if isinstance(data, PointCloud):
         raise ValueError(f"{function} needs a mesh (faces), not a PointCloud")
     if faces is None:
@@ -487,7 +496,7 @@ def _mesh_arrays(data: Any, faces: Optional[Faces], function: str) -> Tuple[Any,
             f"{function} takes a Mesh, a Level, a Hierarchy, an MrqFile, or vertices and faces arrays; "
             f"found {type(data).__name__} without faces"
         )
-    return data, faces, None, None
+    return (data, faces, None, None), None
 
 
 def _error_bound(max_error: Union[None, float, str]) -> Tuple[Optional[float], bool]:
@@ -558,16 +567,7 @@ def decimate(
     ...
     ValueError: ratio must be in (0, 1], not 2.0
     """
-    raw_h = None
-    vertices = normals = colors = None
-    if isinstance(data, MrqFile):
-        data = data.hierarchy()
-    if isinstance(data, Hierarchy):
-        if faces is not None:
-            raise ValueError("decimate: a Hierarchy brings its own faces; pass faces only with a vertex array")
-        raw_h = data._raw
-    else:
-        vertices, faces, normals, colors = _mesh_arrays(data, faces, "decimate")
+    mesh, raw_h = _source(data, faces, "decimate")
     value, relative = _error_bound(max_error)
     import json
 
@@ -579,19 +579,7 @@ def decimate(
             with open(os.fspath(view), encoding="utf-8") as f:
                 camera = f.read()
     raw, report = _octowrap.decimate(
-        vertices,
-        faces,
-        normals,
-        colors,
-        raw_h,
-        target_faces,
-        ratio,
-        value,
-        relative,
-        camera,
-        lock_border,
-        quads,
-        measure,
+        mesh, raw_h, target_faces, ratio, value, relative, camera, lock_border, quads, measure
     )
     return _mesh_from_raw(raw), json.loads(report)
 
@@ -642,30 +630,17 @@ def export_glb(
     """
     import json
 
-    raw_h = None
-    vertices = normals = vertex_colors = None
     pairs: List[Tuple[str, str]] = []
     if isinstance(data, MrqFile):
         pairs = list(data._raw.export_metadata())
-        n = len(data)
-        if isinstance(levels, int) and not isinstance(levels, bool) and 0 <= levels < n:
+        if isinstance(levels, int) and not isinstance(levels, bool) and 0 <= levels < len(data):
             data, levels = data.hierarchy(levels), "finest"  # levels past it are not read
-        else:
-            data = data.hierarchy()
-    if isinstance(data, Hierarchy):
-        if faces is not None:
-            raise ValueError("export_glb: a Hierarchy brings its own faces; pass faces only with a vertex array")
-        raw_h = data._raw
-    else:
-        vertices, faces, normals, vertex_colors = _mesh_arrays(data, faces, "export_glb")
+    mesh, raw_h = _source(data, faces, "export_glb")
     if metadata is not None:
         items = metadata.items() if isinstance(metadata, dict) else metadata
         pairs += [(str(k), str(v)) for k, v in items]
     glb, summary = _octowrap.export_glb(
-        vertices,
-        faces,
-        normals,
-        vertex_colors,
+        mesh,
         raw_h,
         levels,
         quantize,
