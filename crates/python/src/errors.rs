@@ -21,6 +21,19 @@ fn os_error(err: Option<&std::io::Error>, message: String, path: &Path) -> PyErr
     PyOSError::new_err((errno, message, path.display().to_string()))
 }
 
+/// An error of the operating system writing `path`, worded as the writers word it
+/// ("PATH: i/o error: ..."); errors made up by the library (a missing folder) get the `errno` of
+/// their kind, so Python still picks `FileNotFoundError`, `PermissionError`, ...
+pub fn file_error(e: &std::io::Error, path: &Path) -> PyErr {
+    let errno = e.raw_os_error().unwrap_or(match e.kind() {
+        std::io::ErrorKind::NotFound => 2,
+        std::io::ErrorKind::PermissionDenied => 13,
+        std::io::ErrorKind::AlreadyExists => 17,
+        _ => 0,
+    });
+    PyOSError::new_err((errno, format!("{}: i/o error: {e}", path.display()), path.display().to_string()))
+}
+
 /// A reader's or writer's error. `reading` picks the class of the non-I/O errors: a file that
 /// cannot be read is a [`FormatError`]; a mesh or path that cannot be written is a `ValueError`.
 pub fn io_error(e: &octowrap_io::Error, path: &Path, reading: bool) -> PyErr {

@@ -8,12 +8,16 @@
 //!   with the GIL released (`Python::detach`) without Python code mutating its input meanwhile.
 //! * Arrays go out as numpy arrays that take over a Rust vector (no copy) or are made by one copy
 //!   of a slice the library keeps.
+//! * Hierarchies held by Python (`RawHierarchy`) are passed to `decimate` and `export_glb` by
+//!   reference, without a copy.
 //! * Library errors become Python exceptions with the command line's messages (`errors`):
 //!   `OSError` for the operating system, `FormatError` (a `ValueError`) for unreadable or invalid
 //!   files, `ValueError` for bad arguments.
 
 mod arrays;
+mod decimate;
 mod errors;
+mod export;
 mod hierarchy;
 mod meshes;
 mod mrq;
@@ -35,6 +39,8 @@ fn _octowrap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recon::recon_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(mrq::open_mrq, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
+    m.add_function(wrap_pyfunction!(decimate::decimate, m)?)?;
+    m.add_function(wrap_pyfunction!(export::export_glb, m)?)?;
     m.add_class::<hierarchy::RawHierarchy>()?;
     m.add_class::<mrq::RawMrq>()?;
     Ok(())

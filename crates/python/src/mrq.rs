@@ -51,6 +51,26 @@ impl RawMrq {
         serde_json::to_string(&self.info).expect("the file description serializes")
     }
 
+    /// The key-value pairs `octowrap export` records in a glTF file made from this file: its
+    /// units, source and generator (those not empty), its further entries, the number of levels,
+    /// and the file's name as `source` when it records none.
+    fn export_metadata(&self) -> Vec<(String, String)> {
+        let m = &self.info.metadata;
+        let mut out: Vec<(String, String)> = [("units", &m.units), ("source", &m.source), ("generator", &m.generator)]
+            .into_iter()
+            .filter(|(_, v)| !v.is_empty())
+            .map(|(k, v)| (k.to_owned(), v.clone()))
+            .collect();
+        out.extend(m.entries.iter().cloned());
+        out.push(("levels".to_owned(), self.info.levels.len().to_string()));
+        if !out.iter().any(|(k, _)| k == "source") {
+            if let Some(name) = self.path.file_name() {
+                out.push(("source".to_owned(), name.to_string_lossy().into_owned()));
+            }
+        }
+        out
+    }
+
     /// Level `k`'s arrays, decoding levels `0..=k` only.
     fn level<'py>(&self, py: Python<'py>, k: usize) -> PyResult<LevelTuple<'py>> {
         let h = self.prefix(py, k)?;

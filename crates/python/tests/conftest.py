@@ -8,6 +8,8 @@ instead, so a case cannot pass by not running.
 
 import os
 import shutil
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -50,3 +52,27 @@ def sphere(n: int, seed: int = 1):
 
     p = np.random.default_rng(seed).normal(size=(n, 3))
     return p / np.linalg.norm(p, axis=1, keepdims=True)
+
+
+def ticks_during(work):
+    """How often a thread sleeping 1 ms per tick ticks while ``work()`` runs, and the seconds it took."""
+    ticks = 0
+    stop = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not stop.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    time.sleep(0.05)
+    before = ticks
+    start = time.perf_counter()
+    work()
+    seconds = time.perf_counter() - start
+    during = ticks - before
+    stop.set()
+    t.join()
+    return during, seconds

@@ -2,15 +2,13 @@
 
 import inspect
 import subprocess
-import threading
-import time
 
 import numpy as np
 import pytest
 
 import octowrap
 from octowrap import _octowrap
-from conftest import octowrap_bin, sphere
+from conftest import octowrap_bin, sphere, ticks_during
 
 
 @pytest.fixture(scope="module")
@@ -104,25 +102,7 @@ def test_open_mrq_reads_only_the_prefix_it_needs(tmp_path, hierarchy):
 
 def test_the_gil_is_released_while_reconstructing():
     p = sphere(400_000, seed=7)
-    ticks = 0
-    stop = threading.Event()
-
-    def count():
-        nonlocal ticks
-        while not stop.is_set():
-            ticks += 1
-            time.sleep(0.001)
-
-    t = threading.Thread(target=count)
-    t.start()
-    time.sleep(0.05)
-    before = ticks
-    start = time.perf_counter()
-    octowrap.reconstruct(p, max_level=7)
-    seconds = time.perf_counter() - start
-    during = ticks - before
-    stop.set()
-    t.join()
+    during, seconds = ticks_during(lambda: octowrap.reconstruct(p, max_level=7))
     assert seconds > 0.2, f"the input is too small to tell ({seconds:.3f} s)"
     # A thread that sleeps 1 ms per tick gets at least a tenth of its ticks when the GIL is free;
     # it gets none while a call holds the GIL.

@@ -8,6 +8,9 @@ accepted as input). Inputs must be C-contiguous arrays of the stated dtype: anyt
 ``ValueError`` that says what to pass. Each array is copied once on the way in, then the work runs
 with the GIL released, so other Python threads keep running.
 
+``import octowrap`` does not import numpy (whose import is most of a cold start): numpy is
+imported when an array is first passed in or handed out.
+
 Errors: ``OSError`` (with the path) when the operating system refuses, ``FormatError`` (a
 ``ValueError``) for files octowrap cannot read, ``ValueError`` for bad arguments; the messages are
 the command line's.
@@ -24,11 +27,19 @@ True
 
 from __future__ import annotations
 
-import json
+import operator
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
-import numpy as np
+# numpy, typing and json are imported where they are used, not here: together they are most of
+# the time `import octowrap` would take (the .pyi stub carries the types for checkers).
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+    import numpy as np
+
+    Faces = Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]
+    MeshSource = Union["Mesh", "Hierarchy", "MrqFile", np.ndarray]
 
 from . import _octowrap
 from ._octowrap import FORMAT_VERSION, FormatError, __version__
@@ -41,6 +52,8 @@ __all__ = [
     "Mesh",
     "MrqFile",
     "PointCloud",
+    "decimate",
+    "export_glb",
     "open_mrq",
     "read",
     "reconstruct",
@@ -53,10 +66,10 @@ __all__ = [
 #: Extensions (without the dot) that :func:`write` writes.
 WRITABLE_FORMATS: Tuple[str, ...] = tuple(_octowrap.writable_extensions())
 
-Faces = Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]
-
 
 def _faces_from_csr(offsets: np.ndarray, indices: np.ndarray, k: Optional[int]) -> Faces:
+    import numpy as np
+
     if k is not None:
         return indices.reshape(-1, k)
     if len(offsets) == 1:
@@ -67,10 +80,14 @@ def _faces_from_csr(offsets: np.ndarray, indices: np.ndarray, k: Optional[int]) 
 def _rgba(colors: Optional[np.ndarray]) -> Optional[np.ndarray]:
     if colors is None:
         return None
+    import numpy as np
+
     return np.hstack([colors, np.full((len(colors), 1), 255, np.uint8)])
 
 
 def _open3d_attributes(o3d: Any, geometry: Any, normals: Optional[np.ndarray], colors: Optional[np.ndarray], prefix: str) -> Any:
+    import numpy as np
+
     if normals is not None:
         setattr(geometry, prefix + "normals", o3d.utility.Vector3dVector(normals.astype(np.float64)))
     if colors is not None:
@@ -163,6 +180,8 @@ class Mesh:
     @property
     def face_offsets(self) -> np.ndarray:
         """``int64 (M + 1,)``: face ``i`` is ``face_indices[face_offsets[i]:face_offsets[i + 1]]``."""
+        import numpy as np
+
         if isinstance(self.faces, tuple):
             return np.asarray(self.faces[0])
         m, k = np.shape(self.faces)
@@ -171,6 +190,8 @@ class Mesh:
     @property
     def face_indices(self) -> np.ndarray:
         """``int64 (C,)``: every face's corners, face after face."""
+        import numpy as np
+
         if isinstance(self.faces, tuple):
             return np.asarray(self.faces[1])
         return np.asarray(self.faces).reshape(-1)
@@ -180,6 +201,8 @@ class Mesh:
 
     def triangles(self) -> np.ndarray:
         """The faces as triangles ``int64 (T, 3)``: each face fanned from its first corner."""
+        import numpy as np
+
         off, idx = self.face_offsets, self.face_indices
         sizes = np.diff(off)
         if sizes.size and (sizes == 3).all():
@@ -203,6 +226,8 @@ class Mesh:
 
     def to_open3d(self) -> Any:
         """An ``open3d.geometry.TriangleMesh`` (needs open3d); polygons fanned into triangles."""
+        import numpy as np
+
         o3d = _need("open3d", "open3d")
         m = o3d.geometry.TriangleMesh(
             o3d.utility.Vector3dVector(self.vertices), o3d.utility.Vector3iVector(self.triangles().astype(np.int32))
@@ -249,13 +274,15 @@ class Hierarchy:
 
     def __getitem__(self, k: int) -> Level:
         n = len(self)
-        if not isinstance(k, (int, np.integer)):
-            raise TypeError(f"level numbers are integers, not {type(k).__name__}")
+        try:
+            k = operator.index(k)
+        except TypeError:
+            raise TypeError(f"level numbers are integers, not {type(k).__name__}") from None
         if k < 0:
             k += n
         if not 0 <= k < n:
             raise IndexError(f"level {k}: the hierarchy has levels 0 to {n - 1}")
-        return Level(self._raw.level(int(k)))
+        return Level(self._raw.level(k))
 
     def __iter__(self):
         return (self[k] for k in range(len(self)))
@@ -302,6 +329,8 @@ class MrqFile:
 
     def __init__(self, raw: Any) -> None:
         self._raw = raw
+        import json
+
         self.info: Dict[str, Any] = json.loads(raw.info_json())
 
     def __len__(self) -> int:
@@ -321,6 +350,11 @@ class MrqFile:
         return Hierarchy(self._raw.hierarchy(k))
 
 
+def _mesh_from_raw(raw: tuple) -> Mesh:
+    positions, normals, colors, _intensities, offsets, indices, k = raw
+    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
+
+
 def read(path: Union[str, os.PathLike]) -> Union[PointCloud, Mesh]:
     """Reads a point cloud or mesh: PLY, OBJ, OFF, STL, XYZ/PTS, PCD, LAS/LAZ, E57, EXR, .conf.
 
@@ -333,10 +367,11 @@ def read(path: Union[str, os.PathLike]) -> Union[PointCloud, Mesh]:
     ...
     FileNotFoundError: [Errno 2] missing.ply: i/o error: No such file or directory (os error 2): 'missing.ply'
     """
-    positions, normals, colors, intensities, offsets, indices, k, _format = _octowrap.read(os.fspath(path))
+    raw, _format = _octowrap.read(os.fspath(path))
+    positions, normals, colors, intensities, offsets, _indices, _k = raw
     if len(offsets) == 1:
         return PointCloud(positions, normals, colors, intensities)
-    return Mesh(positions, _faces_from_csr(offsets, indices, k), normals, colors)
+    return _mesh_from_raw(raw)
 
 
 def write(path: Union[str, os.PathLike], data: Union[PointCloud, Mesh], ascii: bool = False) -> None:
@@ -430,8 +465,190 @@ def validate(
     """
     if isinstance(require, str):
         require = [require]
+    import json
+
     report = json.loads(
         _octowrap.validate(vertices, faces, list(require), weld, self_intersections, max_elements)
     )
     report["passed"] = not report["failed_requirements"]
     return report
+
+
+
+def _source(data: Any, faces: Optional[Faces], function: str) -> Tuple[Optional[tuple], Any]:
+    """``(mesh, hierarchy)`` for the compiled module, one of them ``None``: a :class:`Mesh`, or
+    vertex and face arrays, as ``(vertices, faces, normals, colors)``; a :class:`Hierarchy` (or
+    an :class:`MrqFile`, decoded whole) as the hierarchy it holds."""
+    if isinstance(data, MrqFile):
+        data = data.hierarchy()
+    if isinstance(data, Hierarchy):
+        if faces is not None:
+            raise ValueError(f"{function}: a Hierarchy brings its own faces; pass faces only with a vertex array")
+        return None, data._raw
+    if isinstance(data, Mesh):
+        if faces is not None:
+            raise ValueError(f"{function}: faces come with the Mesh; pass faces only with a vertex array")
+        return (data.vertices, data.faces, data.normals, data.colors), None
+    if isinstance(data, PointCloud):
+        raise ValueError(f"{function} needs a mesh (faces), not a PointCloud")
+    if faces is None:
+        raise ValueError(
+            f"{function} takes a Mesh, a Level, a Hierarchy, an MrqFile, or vertices and faces arrays; "
+            f"found {type(data).__name__} without faces"
+        )
+    return (data, faces, None, None), None
+
+
+def _error_bound(max_error: Union[None, float, str]) -> Tuple[Optional[float], bool]:
+    """``max_error`` as ``(value, relative)``: a length, or a string such as ``"0.1%"``."""
+    if max_error is None:
+        return None, False
+    if isinstance(max_error, str):
+        text = max_error.strip()
+        relative = text.endswith("%")
+        try:
+            value = float(text[:-1] if relative else text)
+        except ValueError:
+            raise ValueError(f"max_error '{max_error}' is not a number (or a percentage like '0.1%')") from None
+        return (value / 100.0, True) if relative else (value, False)
+    if isinstance(max_error, bool):
+        raise ValueError("max_error is a length or a percentage string, not a bool")
+    return float(max_error), False
+
+
+def decimate(
+    data: MeshSource,
+    faces: Optional[Faces] = None,
+    *,
+    target_faces: Optional[int] = None,
+    ratio: Optional[float] = None,
+    max_error: Union[None, float, str] = None,
+    view: Union[None, Dict[str, Any], str, os.PathLike] = None,
+    lock_border: bool = False,
+    quads: str = "auto",
+    measure: bool = False,
+) -> Tuple[Mesh, Dict[str, Any]]:
+    """Decimates a mesh, or cuts a hierarchy adaptively, as ``octowrap decimate`` does.
+
+    ``data`` is a :class:`Mesh` (a :class:`Level` too), a vertex array with ``faces``, or a
+    :class:`Hierarchy` or :class:`MrqFile`. Returns the new :class:`Mesh` and the report
+    ``octowrap decimate --json`` prints (without the file names): ``mode`` (``"decimate"`` or
+    ``"cut"``), ``input_faces``, ``output_faces``, ``output_vertices``, ``seconds``, and
+    ``decimate`` or ``cut`` with the details (``measured`` too with ``measure=True``). The mesh
+    is the one the command writes: ``octowrap.write`` gives the same file bytes.
+
+    Targets (at least one; with several, decimation stops at whichever comes first):
+    ``target_faces`` (faces as written: a quad is one face, and so is each triangle), ``ratio``
+    (a fraction of the input's faces, in ``(0, 1]``), ``max_error`` (the certified Hausdorff
+    distance to the input: a length in the input's units, or a percentage of the bounding-box
+    diagonal such as ``"0.1%"``). Edge collapse by quadric error never makes the mesh less
+    manifold; ``lock_border`` keeps boundary vertices fixed; ``quads`` is ``"auto"`` (re-pair
+    triangles into quads when half or more of the input faces are quads), ``"quads"`` or
+    ``"triangles"``. ``measure`` adds the certified and sampled distances (about three times the
+    decimation's time).
+
+    A hierarchy with ``max_error`` alone, or with ``view`` (a camera: a dict with ``position``,
+    ``target``, ``up``, ``fov_y_degrees``, ``viewport_height_px``, ``pixel_error``, or the path of
+    such a JSON file), is cut through its levels instead: each region takes the coarsest level
+    within the bound, stitched crack-free; with ``target_faces`` or ``ratio`` its finest level is
+    decimated. The GIL is released while it runs.
+
+    >>> import numpy as np, octowrap
+    >>> rng = np.random.default_rng(2)
+    >>> p = rng.normal(size=(20000, 3)); p /= np.linalg.norm(p, axis=1, keepdims=True)
+    >>> finest = octowrap.reconstruct(p, max_level=5)[5]
+    >>> small, report = octowrap.decimate(finest, ratio=0.1)
+    >>> report["mode"], report["output_faces"] <= round(0.1 * len(finest.parent))
+    ('decimate', True)
+    >>> octowrap.validate(small.vertices, small.faces, require=["watertight", "oriented"])["passed"]
+    True
+    >>> octowrap.decimate(finest.vertices, finest.faces, ratio=2.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: ratio must be in (0, 1], not 2.0
+    """
+    mesh, raw_h = _source(data, faces, "decimate")
+    value, relative = _error_bound(max_error)
+    import json
+
+    camera = None
+    if view is not None:
+        if isinstance(view, dict):
+            camera = json.dumps(view)
+        else:
+            with open(os.fspath(view), encoding="utf-8") as f:
+                camera = f.read()
+    raw, report = _octowrap.decimate(
+        mesh, raw_h, target_faces, ratio, value, relative, camera, lock_border, quads, measure
+    )
+    return _mesh_from_raw(raw), json.loads(report)
+
+
+def export_glb(
+    data: MeshSource,
+    faces: Optional[Faces] = None,
+    *,
+    path: Union[None, str, os.PathLike] = None,
+    levels: Union[str, int] = "finest",
+    quantize: bool = False,
+    meshopt: bool = False,
+    crease_angle: Optional[float] = None,
+    colors: bool = True,
+    screen_error: float = 1.0,
+    metadata: Union[None, Dict[str, str], Sequence[Tuple[str, str]]] = None,
+) -> Tuple[bytes, Dict[str, Any]]:
+    """Exports a mesh or hierarchy as binary glTF 2.0 (GLB), as ``octowrap export -o x.glb`` does.
+
+    ``data`` is a :class:`Mesh` (a :class:`Level` too), a vertex array with ``faces``, a
+    :class:`Hierarchy` or an :class:`MrqFile`. Returns the GLB bytes and a summary: ``levels``
+    (per exported level, finest first: ``level``, ``source_faces``, ``vertices``, ``triangles``,
+    ``u32_indices``, ``geometric_error``), ``screen_coverage``, ``extensions_used``,
+    ``extensions_required`` and ``bytes``. With ``path`` (a ``.glb``), the bytes are also written
+    there, to a temporary file renamed into place.
+
+    ``levels``: ``"finest"`` (the default), ``"all"`` (every level as an ``MSFT_lod`` chain with
+    screen-coverage hints that allow ``screen_error`` pixels of a 1080-pixel-high view), or a
+    level number (0 = coarsest; an :class:`MrqFile` then decodes levels up to it only). Quads are
+    split along their shorter diagonal; normals are smooth unless ``crease_angle`` (degrees)
+    splits them; vertex colours are kept unless ``colors=False``. ``quantize`` stores 16-bit
+    positions and 8-bit normals (``KHR_mesh_quantization``), ``meshopt`` compresses the buffers
+    (``EXT_meshopt_compression``). ``metadata`` (pairs, in order) goes in
+    ``asset.extras.octowrap``; from an :class:`MrqFile` the file's own metadata comes first, as
+    the command line records it (the command records a mesh file's name as ``source``:
+    ``metadata={"source": "part.ply"}`` gives its bytes). The same input and options give the
+    same bytes; the GIL is released while it runs.
+
+    >>> import numpy as np, octowrap
+    >>> quad = octowrap.Mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float), np.array([[0, 1, 2, 3]]))
+    >>> glb, summary = octowrap.export_glb(quad, quantize=True)
+    >>> glb[:4], summary["levels"][0]["triangles"], summary["extensions_required"], summary["bytes"] == len(glb)
+    (b'glTF', 2, ['KHR_mesh_quantization'], True)
+    >>> octowrap.export_glb(quad, levels="some")
+    Traceback (most recent call last):
+    ...
+    ValueError: levels must be "finest", "all" or a level number (0 = coarsest), not 'some'
+    """
+    import json
+
+    pairs: List[Tuple[str, str]] = []
+    if isinstance(data, MrqFile):
+        pairs = list(data._raw.export_metadata())
+        if isinstance(levels, int) and not isinstance(levels, bool) and 0 <= levels < len(data):
+            data, levels = data.hierarchy(levels), "finest"  # levels past it are not read
+    mesh, raw_h = _source(data, faces, "export_glb")
+    if metadata is not None:
+        items = metadata.items() if isinstance(metadata, dict) else metadata
+        pairs += [(str(k), str(v)) for k, v in items]
+    glb, summary = _octowrap.export_glb(
+        mesh,
+        raw_h,
+        levels,
+        quantize,
+        meshopt,
+        crease_angle,
+        colors,
+        screen_error,
+        pairs,
+        None if path is None else os.fspath(path),
+    )
+    return glb, json.loads(summary)

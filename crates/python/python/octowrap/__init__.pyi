@@ -106,3 +106,31 @@ def validate(
     self_intersections: bool = False,
     max_elements: int = 100,
 ) -> Dict[str, Any]: ...
+
+MeshSource = Union[Mesh, Hierarchy, MrqFile, npt.NDArray[np.float64]]
+
+def decimate(
+    data: MeshSource,
+    faces: Optional[Faces] = None,
+    *,
+    target_faces: Optional[int] = None,
+    ratio: Optional[float] = None,
+    max_error: Union[None, float, str] = None,
+    view: Union[None, Dict[str, Any], PathLike] = None,
+    lock_border: bool = False,
+    quads: str = "auto",
+    measure: bool = False,
+) -> Tuple[Mesh, Dict[str, Any]]: ...
+def export_glb(
+    data: MeshSource,
+    faces: Optional[Faces] = None,
+    *,
+    path: Optional[PathLike] = None,
+    levels: Union[str, int] = "finest",
+    quantize: bool = False,
+    meshopt: bool = False,
+    crease_angle: Optional[float] = None,
+    colors: bool = True,
+    screen_error: float = 1.0,
+    metadata: Union[None, Dict[str, str], Sequence[Tuple[str, str]]] = None,
+) -> Tuple[bytes, Dict[str, Any]]: ...
