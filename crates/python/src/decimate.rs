@@ -61,16 +61,6 @@ pub fn decimate<'py>(
         other => return Err(bad(format!("quads must be \"auto\", \"quads\" or \"triangles\", not {other:?}"))),
     };
     let hierarchy = hierarchy.as_ref().map(|h| &h.get().hierarchy);
-    let cut =
-        hierarchy.is_some() && (view.is_some() || (max_error.is_some() && target_faces.is_none() && ratio.is_none()));
-    if cut && (lock_border || quad_mode != QuadMode::Auto) {
-        let option = if lock_border { "lock_border" } else { "quads" };
-        return Err(bad(format!(
-            "{option} steers edge collapse, but a hierarchy with {} is cut through its levels, which keeps every \
-             boundary and face kind of the hierarchy: drop {option}, or add target_faces or ratio to decimate",
-            if view.is_some() { "view" } else { "max_error alone" }
-        )));
-    }
     let camera = match (&view, hierarchy) {
         (Some(_), None) => {
             return Err(bad("view cuts a hierarchy; a mesh is decimated with ratio, target_faces or max_error"));
@@ -88,17 +78,32 @@ pub fn decimate<'py>(
     }
     let input = &*input;
     let bound = max_error.map(|e| if max_error_relative { ErrorBound::Relative(e) } else { ErrorBound::Absolute(e) });
+    // As the command line decides: a hierarchy is cut for a camera, or for an error bound without
+    // a face target; anything else is decimated (a hierarchy's finest level).
+    let cut = match (hierarchy, camera, bound) {
+        (Some(h), Some(c), _) => Some((h, CutCriterion::View(c))),
+        (Some(h), None, Some(b)) if target_faces.is_none() && ratio.is_none() => {
+            let e = match b {
+                ErrorBound::Absolute(e) => e,
+                ErrorBound::Relative(r) => r * input.vertices.bounds().diagonal(),
+            };
+            Some((h, CutCriterion::MaxError(e)))
+        }
+        _ => None,
+    };
+    if cut.is_some() && (lock_border || quad_mode != QuadMode::Auto) {
+        let option = if lock_border { "lock_border" } else { "quads" };
+        return Err(bad(format!(
+            "{option} steers edge collapse, but a hierarchy with {} is cut through its levels, which keeps every \
+             boundary and face kind of the hierarchy: drop {option}, or add target_faces or ratio to decimate",
+            if view.is_some() { "view" } else { "max_error alone" }
+        )));
+    }
     let run = py.detach(|| -> Result<(Mesh, Value), octowrap_decimate::Error> {
         let start = Instant::now();
         let mut report = Map::new();
-        let mesh = if let (true, Some(h)) = (cut, hierarchy) {
-            let criterion = match (camera, bound) {
-                (Some(c), _) => CutCriterion::View(c),
-                (None, Some(ErrorBound::Absolute(e))) => CutCriterion::MaxError(e),
-                (None, Some(ErrorBound::Relative(r))) => CutCriterion::MaxError(r * input.vertices.bounds().diagonal()),
-                (None, None) => unreachable!("a cut has a view or an error bound"),
-            };
-            let out = octowrap_decimate::cut(h, &criterion)?;
+        let mesh = if let Some((h, criterion)) = &cut {
+            let out = octowrap_decimate::cut(h, criterion)?;
             report.insert("mode".into(), json!("cut"));
             report.insert("cut".into(), json!(out.report));
             out.mesh

@@ -55,7 +55,8 @@ def sphere(n: int, seed: int = 1):
 
 
 def ticks_during(work):
-    """How often a thread sleeping 1 ms per tick ticks while ``work()`` runs, and the seconds it took."""
+    """Ticks of a thread that sleeps 1 ms per tick while ``work()`` runs, the seconds it took, and
+    the ticks per second the same thread makes while nothing runs (the machine's load slows it)."""
     ticks = 0
     stop = threading.Event()
 
@@ -73,6 +74,17 @@ def ticks_during(work):
     work()
     seconds = time.perf_counter() - start
     during = ticks - before
+    idle_start, idle_seconds = ticks, min(seconds, 1.0)
+    time.sleep(idle_seconds)
+    idle_rate = (ticks - idle_start) / idle_seconds
     stop.set()
     t.join()
-    return during, seconds
+    return during, seconds, idle_rate
+
+
+def assert_gil_released(work, name):
+    """``work()`` lets other Python threads run: one that ticks gets at least a tenth of its idle
+    ticks while it runs, where a call holding the GIL leaves it none."""
+    during, seconds, idle_rate = ticks_during(work)
+    assert seconds > 0.2, f"{name}: the input is too small to tell ({seconds:.3f} s)"
+    assert during >= max(5, idle_rate * seconds / 10), (name, during, seconds, idle_rate)
