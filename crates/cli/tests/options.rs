@@ -218,7 +218,10 @@ fn with_stdin(args: &[&str], input: &[u8]) -> std::process::Output {
 
 #[test]
 fn standard_input_counts_against_max_memory_like_a_file() {
-    let xyz: String = (0..100_000).map(|i| format!("{i} {} 0.5\n", i % 7)).collect();
+    let mut xyz = String::new();
+    for i in 0..100_000 {
+        xyz += &(i.to_string() + " " + &(i % 7).to_string() + " 0.5\n");
+    }
     assert!(xyz.len() > 1 << 20);
     let out = with_stdin(&["info", "-", "--from", "xyz", "--max-memory", "1M"], xyz.as_bytes());
     let err = text(&out.stderr);
