@@ -196,6 +196,50 @@ fn max_memory_is_documented_and_refuses_a_larger_input() {
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
 
+/// Runs `octowrap args` with `input` on standard input.
+fn with_stdin(args: &[&str], input: &[u8]) -> std::process::Output {
+    use std::io::Write as _;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_octowrap"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_vec();
+    // The command may stop reading early (that is the point): a closed pipe is fine here.
+    let feeder = std::thread::spawn(move || drop(stdin.write_all(&input)));
+    let out = child.wait_with_output().unwrap();
+    feeder.join().unwrap();
+    out
+}
+
+#[test]
+fn standard_input_counts_against_max_memory_like_a_file() {
+    let mut xyz = String::new();
+    for i in 0..100_000 {
+        xyz += &(i.to_string() + " " + &(i % 7).to_string() + " 0.5\n");
+    }
+    assert!(xyz.len() > 1 << 20);
+    let out = with_stdin(&["info", "-", "--from", "xyz", "--max-memory", "1M"], xyz.as_bytes());
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("<stdin>") && err.contains("--max-memory") && err.contains("1048576 bytes"), "{err}");
+    // Compressed, the same points fit in a few kilobytes, but what they decompress to counts.
+    let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut z, xyz.as_bytes()).unwrap();
+    let gz = z.finish().unwrap();
+    assert!(gz.len() < 1 << 20);
+    let out = with_stdin(&["info", "-", "--from", "xyz", "--max-memory", "1M"], &gz);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("--max-memory"), "{}", text(&out.stderr));
+    let out = with_stdin(&["info", "-", "--from", "xyz", "--max-memory", "64M"], xyz.as_bytes());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("100000"), "{}", text(&out.stdout));
+}
+
 #[test]
 fn max_scans_caps_a_conf_set_and_raising_it_reads_the_set() {
     let dir = tempfile::tempdir().unwrap();

@@ -213,6 +213,62 @@ fn a_gz_output_is_gzip_compressed() {
     assert_eq!(v["faces"], 6);
 }
 
+/// The bytes of a gzip file, decompressed.
+fn gunzip(path: &Path) -> Vec<u8> {
+    use std::io::Read as _;
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(bytes[..2], [0x1f, 0x8b], "{}: gzip signature", path.display());
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(&bytes[..]).read_to_end(&mut out).unwrap();
+    out
+}
+
+#[test]
+fn mrq_and_glb_gz_outputs_are_gzip_compressed_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, gz) = (dir.path().join("c.mrq"), dir.path().join("c.mrq.gz"));
+    for o in [&plain, &gz] {
+        let out = octowrap(&["convert", s(&mrq()), s(o)]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    }
+    // The encoder records the output's name nowhere, so the two hold the same MRQ bytes.
+    assert!(gunzip(&gz) == std::fs::read(&plain).unwrap(), "the .mrq.gz holds the .mrq's bytes");
+    // Read back by every command that takes an MRQ input: info, validate, convert, export.
+    let info = octowrap(&["info", "--json", s(&gz)]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["format"], "mrq", "{v}");
+    // validate decodes every level of the .gz as of the plain file: the same report.
+    let (valid, valid_plain) = (octowrap(&["validate", s(&gz)]), octowrap(&["validate", s(&plain)]));
+    assert_eq!(valid.status.code(), valid_plain.status.code(), "{}", text(&valid.stderr));
+    let report = |o: &std::process::Output| text(&o.stdout) + &text(&o.stderr);
+    assert_eq!(report(&valid).replace("c.mrq.gz", "c.mrq"), report(&valid_plain));
+    assert!(report(&valid).contains("level 0:"), "{}", report(&valid));
+    // convert reads the levels of the .gz as of the plain file.
+    let (back, back_plain) = (dir.path().join("back.obj"), dir.path().join("back-plain.obj"));
+    for (from, to) in [(&gz, &back), (&plain, &back_plain)] {
+        let out = octowrap(&["convert", s(from), s(to)]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    }
+    assert!(std::fs::read(&back).unwrap() == std::fs::read(&back_plain).unwrap(), "the same finest level");
+    // reconstruct writes .mrq.gz too.
+    let rec = dir.path().join("k.mrq.gz");
+    let out = octowrap(&["reconstruct", s(&kitten()), "-o", s(&rec), "--level", "3"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(gunzip(&rec).starts_with(b"\x89MRQ"), "an MRQ file inside");
+    // export: .glb.gz holds the .glb's bytes; .gltf.gz is refused before any work.
+    let (glb, glb_gz) = (dir.path().join("c.glb"), dir.path().join("c.glb.gz"));
+    for o in [&glb, &glb_gz] {
+        let out = octowrap(&["export", s(&mrq()), "-o", s(o)]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    }
+    assert!(gunzip(&glb_gz) == std::fs::read(&glb).unwrap(), "the .glb.gz holds the .glb's bytes");
+    let gltf_gz = dir.path().join("c.gltf.gz");
+    let out = octowrap(&["export", s(&mrq()), "-o", s(&gltf_gz)]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains(".glb.gz"), "{}", text(&out.stderr));
+    assert!(!gltf_gz.exists());
+}
+
 #[test]
 fn a_signal_during_a_write_leaves_no_temporary() {
     let dir = tempfile::tempdir().unwrap();

@@ -17,6 +17,9 @@
 //! Temporaries alive at any moment are listed in a registry, so that a process stopped by a
 //! signal can remove them first: [`remove_temporaries_before_exit`].
 //!
+//! A path ending in `.gz` holds what the caller writes gzip-compressed when written with
+//! [`write_file_gz`] (every command's output goes through it).
+//!
 //! [`check_output`] runs the same checks before any work is done (a long computation should not
 //! end in "cannot write there"), and [`same_file`] tells whether two paths name one file (by
 //! device and inode, so through symbolic and hard links), so that a command can refuse to
@@ -183,6 +186,37 @@ pub fn write_file<E>(
         }
         Target::Replace { path, existing } => replace(&path, existing.as_ref(), opts, write),
     }
+}
+
+/// Whether `path` ends in `.gz` (any case): [`write_file_gz`] compresses what goes there.
+pub fn is_gz(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+}
+
+/// `path` without a trailing `.gz` (as [`is_gz`] tells it), else `path` itself: the name whose
+/// extension says what the file holds.
+pub fn without_gz(path: &Path) -> PathBuf {
+    if is_gz(path) { path.with_extension("") } else { path.to_path_buf() }
+}
+
+/// [`write_file`], gzip-compressing the bytes `write` produces when `path` ends in `.gz`.
+pub fn write_file_gz<E>(
+    path: &Path,
+    opts: &WriteOptions,
+    write: impl FnOnce(&mut dyn Write) -> Result<(), E>,
+) -> Result<(), WriteError<E>> {
+    if !is_gz(path) {
+        return write_file(path, opts, write);
+    }
+    let compressed = |w: &mut dyn Write| -> Result<(), WriteError<E>> {
+        let mut z = flate2::write::GzEncoder::new(w, flate2::Compression::default());
+        write(&mut z).map_err(WriteError::Write)?;
+        z.finish().map(drop).map_err(WriteError::Io)
+    };
+    write_file(path, opts, compressed).map_err(|e| match e {
+        WriteError::Io(e) | WriteError::Write(WriteError::Io(e)) => WriteError::Io(e),
+        WriteError::Write(WriteError::Write(e)) => WriteError::Write(e),
+    })
 }
 
 /// The live temporaries (created, not yet renamed into place or removed).

@@ -164,3 +164,29 @@ fn same_file_sees_through_symbolic_and_hard_links() {
     assert!(!same_file(&a, &other));
     assert!(!same_file(&a, &dir.path().join("missing.ply")));
 }
+
+#[test]
+fn a_gz_path_is_written_compressed_and_any_other_as_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = b"solid nothing\n".repeat(1000);
+    let gz = dir.path().join("a.mrq.gz");
+    octowrap_fsutil::write_file_gz(&gz, &WriteOptions::default(), |w| w.write_all(&text)).unwrap();
+    let stored = std::fs::read(&gz).unwrap();
+    assert_eq!(stored[..2], [0x1f, 0x8b], "a gzip member");
+    assert!(stored.len() < text.len() / 10, "{} bytes", stored.len());
+    let mut back = Vec::new();
+    flate2::read::GzDecoder::new(&stored[..]).read_to_end(&mut back).unwrap();
+    assert_eq!(back, text);
+    let plain = dir.path().join("a.mrq");
+    octowrap_fsutil::write_file_gz(&plain, &WriteOptions::default(), |w| w.write_all(&text)).unwrap();
+    assert_eq!(std::fs::read(&plain).unwrap(), text);
+    assert_eq!(octowrap_fsutil::without_gz(&gz), plain);
+    assert_eq!(octowrap_fsutil::without_gz(&plain), plain);
+    // A failing writer leaves nothing behind, compressed or not.
+    let failed = octowrap_fsutil::write_file_gz(&dir.path().join("b.glb.gz"), &WriteOptions::default(), |w| {
+        w.write_all(b"partial")?;
+        Err(std::io::Error::other("stopped"))
+    });
+    assert!(matches!(failed, Err(WriteError::Write(_))));
+    assert_only(dir.path(), &["a.mrq", "a.mrq.gz"]);
+}

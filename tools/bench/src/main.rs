@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, validator, decimation, fuzzing); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -20,6 +20,7 @@ macro_rules! outln {
 
 mod decimate;
 mod format;
+mod fuzz;
 mod io;
 mod recon;
 mod results;
@@ -50,12 +51,13 @@ fn main() -> std::process::ExitCode {
     println!();
     println!("{}", util::machine_line());
     println!();
-    let sections: [(&str, fn()); 5] = [
+    let sections: [(&str, fn()); 6] = [
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
         ("validate", validate::report),
         ("decimate", decimate::report),
+        ("fuzz", fuzz::report),
     ];
     for (name, report) in sections {
         if !(wanted.is_empty() || wanted.iter().any(|w| *w == name)) {

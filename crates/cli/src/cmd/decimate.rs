@@ -90,7 +90,8 @@ use crate::progress;
 pub struct Args {
     /// Input mesh or MRQ file (`-` for standard input).
     pub input: PathBuf,
-    /// Output file: ply, obj, off, stl, or mrq (a one-level file); `-` for standard output with --to.
+    /// Output file: ply, obj, off, stl, or mrq (a one-level file), gzip-compressed when the name
+    /// ends in .gz; `-` for standard output with --to.
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
     /// Target face count, 1 or more: faces as written (a quad is one face, a triangle another).

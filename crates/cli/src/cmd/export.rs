@@ -1,6 +1,6 @@
 //! `octowrap export`: an MRQ hierarchy or any mesh as glTF 2.0 (GLB, or .gltf + .bin).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
@@ -42,7 +42,8 @@ use crate::progress;
 pub struct Args {
     /// Input: an MRQ file or any mesh (PLY, OBJ, OFF, STL, ...; `-` for standard input with --from).
     pub input: PathBuf,
-    /// Output file: .glb (binary glTF) or .gltf (JSON, with OUT's stem .bin beside it).
+    /// Output file: .glb (binary glTF; .glb.gz gzip-compressed) or .gltf (JSON, with OUT's stem
+    /// .bin beside it).
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
     /// Which levels of an MRQ file: `all` writes every level as an MSFT_lod chain; `finest` (the
@@ -103,11 +104,22 @@ pub enum WhichLevels {
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
-    if octowrap_export::Container::from_path(&args.output).is_none() {
-        bail!("cannot tell the glTF form of '{}': the output must end in .glb or .gltf", args.output.display());
+    let gz = octowrap_fsutil::is_gz(&args.output);
+    let container = octowrap_export::Container::from_path(&octowrap_fsutil::without_gz(&args.output));
+    let Some(container) = container else {
+        bail!(
+            "cannot tell the glTF form of '{}': the output must end in .glb, .glb.gz or .gltf",
+            args.output.display()
+        );
+    };
+    if gz && container == octowrap_export::Container::Gltf {
+        bail!(
+            "'{}': a .gltf file names its .bin beside it, so it is not compressed: write a .glb.gz instead",
+            args.output.display()
+        );
     }
     crate::out::check_output(&args.output, &[&args.input], args.clobber)?;
-    if octowrap_export::Container::from_path(&args.output) == Some(octowrap_export::Container::Gltf) {
+    if container == octowrap_export::Container::Gltf {
         crate::out::check_output(&args.output.with_extension("bin"), &[&args.input], args.clobber)?;
     }
     let mut opts = ExportOptions::default();
@@ -155,7 +167,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         opts.metadata.push(("source".to_owned(), source));
     }
     let pb = progress::spinner(format!("exporting {}", args.output.display()));
-    let written = octowrap_export::write_path(&args.output, &h, &opts);
+    let written = if gz {
+        write_glb_gz(&args.output, &h, &opts, args.clobber)
+    } else {
+        octowrap_export::write_path(&args.output, &h, &opts).map_err(anyhow::Error::from)
+    };
     pb.finish_and_clear();
     let summary = written.with_context(|| format!("exporting {input_name}"))?;
     let triangles: usize = summary.levels.iter().map(|l| l.triangles).sum();
@@ -173,4 +189,18 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         }
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes `h` as one gzip-compressed .glb file.
+fn write_glb_gz(
+    path: &Path,
+    h: &Hierarchy,
+    opts: &ExportOptions,
+    clobber: crate::out::ClobberArgs,
+) -> anyhow::Result<octowrap_export::Summary> {
+    let (bytes, summary) = octowrap_export::to_glb(h, opts)?;
+    octowrap_fsutil::write_file_gz(path, &clobber.write_options(), |w| w.write_all(&bytes))
+        .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| e)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(summary)
 }

@@ -11,9 +11,9 @@ use serde::Serialize;
 
 use crate::out::ClobberArgs;
 
-/// Whether `path` has the `.mrq` extension.
+/// Whether `path` has the `.mrq` extension, or `.mrq.gz` (a gzip-compressed MRQ file).
 pub fn has_mrq_extension(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mrq"))
+    octowrap_fsutil::without_gz(path).extension().is_some_and(|e| e.eq_ignore_ascii_case("mrq"))
 }
 
 /// Whether `path` names an MRQ file: by the `.mrq` extension, or by its magic number.
@@ -98,7 +98,8 @@ impl MrqWriteArgs {
     }
 }
 
-/// Writes `h` to `path` (`-` for standard output) as MRQ.
+/// Writes `h` to `path` (`-` for standard output) as MRQ, gzip-compressed when `path` ends in
+/// `.gz`.
 pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions, clobber: ClobberArgs) -> anyhow::Result<()> {
     let dropped: Vec<&str> = h.levels.iter().flat_map(|l| l.mesh.vertices.attribute_names()).collect();
     if !dropped.is_empty() {
@@ -111,21 +112,38 @@ pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions, clobber: ClobberA
     if path == Path::new("-") {
         return Ok(crate::out::stdout(|w| w.write_all(&bytes))?);
     }
-    octowrap_fsutil::write_file(path, &clobber.write_options(), |w| w.write_all(&bytes))
+    octowrap_fsutil::write_file_gz(path, &clobber.write_options(), |w| w.write_all(&bytes))
         .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| e)
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// Reads levels `0..=level` (all when `None`) of an MRQ file (`-` for standard input).
+/// Reads levels `0..=level` (all when `None`) of an MRQ file (`-` for standard input; a name
+/// ending in `.gz` is decompressed as it is read).
 pub fn read(path: &Path, level: Option<u32>) -> anyhow::Result<octowrap_format::MrqFile> {
     crate::limits::check_input_size(path)?;
     let opts = crate::limits::decode_options(level);
     let file = if path == Path::new("-") {
         octowrap_format::decode(std::io::stdin().lock(), &opts)
     } else {
-        octowrap_format::read_path(path, &opts)
+        decode_file(path, &opts)
     };
     file.with_context(|| format!("reading {}", path.display()))
+}
+
+/// The bytes of the MRQ file `path`, decompressed as they are read when its name ends in `.gz`.
+/// (The decoder reads levels in order and checks each level's declared sizes against its limits
+/// before allocating, so the decompressed stream needs no ceiling of its own.)
+fn open(path: &Path) -> std::io::Result<Box<dyn Read>> {
+    let file = std::io::BufReader::with_capacity(1 << 20, std::fs::File::open(path)?);
+    Ok(if octowrap_fsutil::is_gz(path) { Box::new(flate2::read::MultiGzDecoder::new(file)) } else { Box::new(file) })
+}
+
+/// Decodes the MRQ file `path` (gzip-compressed when its name ends in `.gz`).
+pub fn decode_file(
+    path: &Path,
+    opts: &octowrap_format::DecodeOptions,
+) -> Result<octowrap_format::MrqFile, octowrap_format::DecodeError> {
+    octowrap_format::decode(open(path)?, opts)
 }
 
 /// The mesh of level `level` (the finest when `None`).
@@ -156,9 +174,9 @@ pub struct Report {
 impl Report {
     /// Reads the preamble of `path` only.
     pub fn new(path: &Path) -> anyhow::Result<Self> {
-        let f = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let bytes = f.metadata().map_or(0, |m| m.len());
-        let info = octowrap_format::read_info(std::io::BufReader::new(f), &crate::limits::format_limits())
+        let bytes = std::fs::metadata(path).with_context(|| format!("opening {}", path.display()))?.len();
+        let f = open(path).with_context(|| format!("opening {}", path.display()))?;
+        let info = octowrap_format::read_info(f, &crate::limits::format_limits())
             .with_context(|| format!("reading {}", path.display()))?;
         Ok(Self { file: path.display().to_string(), format: "mrq", bytes, info })
     }

@@ -57,7 +57,8 @@ pub struct Args {
     /// Input point cloud (any readable format; a mesh's vertices are used as points; `-` for
     /// standard input with --from).
     pub input: PathBuf,
-    /// Output file: .ply, .obj, .off, .stl for one level, .mrq for the hierarchy.
+    /// Output file: .ply, .obj, .off, .stl for one level, .mrq for the hierarchy; a name ending in
+    /// .gz (x.mrq.gz, x.ply.gz) is gzip-compressed.
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
     /// Finest level to build, 1 to 20. Levels past the density limit are subdivided (or wrapped

@@ -127,7 +127,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 // Decoding checks every level's checksum and that each level derives from its
                 // parent as the spec says; then every level gets the mesh checks.
                 let read = crate::limits::check_input_size(path)
-                    .and_then(|()| Ok(octowrap_format::read_path(path, &crate::limits::decode_options(None))?));
+                    .and_then(|()| Ok(super::mrq::decode_file(path, &crate::limits::decode_options(None))?));
                 let outcome = match read {
                     Ok(file) => Outcome::Hierarchy(validate_hierarchy(&file.hierarchy, &o)),
                     Err(e) => Outcome::Unreadable { error: format!("{name}: {e:#}") },
