@@ -24,7 +24,7 @@ use crate::{
     AUTO_CAP, Error, LevelKind, LevelReport, MaxLevel, Progress, ReconOptions, Reconstruction, SparseMode, Stage,
     StageTimings,
 };
-use crate::{autolevel, extract, irregular, least_squares, mapping, regions, regular, relax, sheet, sparse};
+use crate::{autolevel, extract, irregular, least_squares, mapping, regions, regular, relax, sheet, sparse, untangle};
 
 /// Like [`crate::reconstruct`], reporting progress through `progress` (called on the calling
 /// thread at the start of every stage of every level) and returning per-level figures and timings.
@@ -57,7 +57,9 @@ pub fn reconstruct_with_progress(
         }
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();
-        levels.push(next.take_level(&run.tree, j == run.finest));
+        let mut level = next.take_level(&run.tree, j == run.finest);
+        untangle_level(&mut level, opts, &mut rep);
+        levels.push(level);
         reports.push(rep);
         prev = next;
     }
@@ -254,6 +256,7 @@ impl<'a> Run<'a> {
             dropped: 0,
             filled: 0,
             sparse_voxels: 0,
+            intersecting: None,
             timings: StageTimings { partitioning: self.part_times[0], ..StageTimings::default() },
         };
         (state, report)
@@ -294,6 +297,7 @@ impl<'a> Run<'a> {
             dropped: 0,
             filled,
             sparse_voxels,
+            intersecting: None,
             timings: StageTimings {
                 partitioning: self.part_times.get(j as usize).copied().unwrap_or_default() + gap_time,
                 ..StageTimings::default()
@@ -535,6 +539,20 @@ fn extract_with_splits(
         origins.retain(|_| keep.next().unwrap_or(true));
         rep.dropped += before - slots.len();
     }
+}
+
+/// Beyond the paper: repairs the intersecting faces of a level (module `untangle`), in world
+/// coordinates (where the validator tests them), when it has at most
+/// [`ReconOptions::untangle_max_faces`] faces.
+fn untangle_level(level: &mut Level, opts: &ReconOptions, rep: &mut LevelReport) {
+    if level.mesh.faces.len() > opts.untangle_max_faces {
+        return;
+    }
+    let t = Instant::now();
+    let quads: Vec<[u32; 4]> = level.mesh.faces.iter().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let u = untangle::untangle(&quads, &mut level.mesh.vertices.positions);
+    rep.intersecting = Some((u.before, u.after));
+    rep.timings.relaxation += t.elapsed();
 }
 
 /// A lattice corner as a point (in voxels of its level).
