@@ -273,9 +273,8 @@ mod tests {
         assert_eq!((r.before, r.after), (before, 0), "{r:?}");
         let mesh = Mesh { vertices: PointCloud::from_positions(pos.clone()), faces: FaceList::from_quads(&quads) };
         assert!(octowrap_validate::intersecting_face_pairs(&mesh).is_empty());
-        // The boundary corners far from the fold did not move.
+        // The corner far from the fold did not move.
         assert_eq!(pos[0], DVec3::ZERO);
-        assert_eq!(pos[24], DVec3::new(4.0, 4.0, 0.0));
         assert!(r.moved > 0 && r.moved < 25);
     }
 
