@@ -24,7 +24,7 @@ use crate::{
     AUTO_CAP, Error, LevelKind, LevelReport, MaxLevel, Progress, ReconOptions, Reconstruction, SparseMode, Stage,
     StageTimings,
 };
-use crate::{extract, irregular, least_squares, mapping, regions, regular, relax, sheet, sparse};
+use crate::{autolevel, extract, irregular, least_squares, mapping, regions, regular, relax, sheet, sparse, untangle};
 
 /// Like [`crate::reconstruct`], reporting progress through `progress` (called on the calling
 /// thread at the start of every stage of every level) and returning per-level figures and timings.
@@ -38,7 +38,9 @@ pub fn reconstruct_with_progress(
     let (mut prev, root_report) = run.root_cube(points.len());
     let mut levels = vec![prev.take_level(&run.tree, false)];
     let mut reports = vec![root_report];
-    for j in 1..=run.finest {
+    let mut j = 0;
+    while j < run.finest {
+        j += 1;
         let finest = run.finest;
         let mut stage = |s| progress(Progress { level: j, levels: finest, stage: s });
         let mut rep = run.prepare_level(j);
@@ -50,14 +52,20 @@ pub fn reconstruct_with_progress(
         // The level above is not needed any more (its output level is already built).
         drop(std::mem::take(&mut prev));
         run.place_vertices(j, &mut next, &mut rep, &mut stage);
+        if run.auto_level(j, &next) == autolevel::Verdict::Drop {
+            break;
+        }
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();
-        levels.push(next.take_level(&run.tree, j == run.finest));
+        let mut level = next.take_level(&run.tree, j == run.finest);
+        untangle_level(&mut level, opts, &mut rep);
+        levels.push(level);
         reports.push(rep);
         prev = next;
     }
     let hierarchy = Hierarchy { levels, cube: Some(run.tree.frame.cube()) };
-    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: run.trusted })
+    let auto = run.auto.take().and_then(|a| a.finish(run.tree.frame.edge));
+    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: run.trusted, auto })
 }
 
 /// Rejects input that cannot be reconstructed: no points, non-finite coordinates, more points
@@ -107,6 +115,8 @@ struct Run<'a> {
     prev_mask: Option<sheet::Mask>,
     /// The flipped diagonal decisions of every wrapped level so far (level 0's empty).
     flips_by_level: Vec<BTreeSet<(u64, u64)>>,
+    /// The choice of the finest level past the trusted one ([`MaxLevel::Auto`]).
+    auto: Option<autolevel::AutoLevel>,
 }
 
 impl<'a> Run<'a> {
@@ -128,6 +138,7 @@ impl<'a> Run<'a> {
             regions: regions_on(opts),
             prev_mask: None,
             flips_by_level: vec![BTreeSet::new()],
+            auto: None,
         };
         run.density_limit(progress);
         if opts.sparse == SparseMode::Wrap {
@@ -136,6 +147,11 @@ impl<'a> Run<'a> {
         run.global = run.trusted;
         if run.regions {
             run.extend_into_dense_regions();
+        }
+        if opts.max_level == MaxLevel::Auto && opts.sparse == SparseMode::Subdivide {
+            let a = autolevel::AutoLevel::new(run.trusted, MAX_LEVEL, points.len(), opts);
+            run.finest = a.cap;
+            run.auto = Some(a);
         }
         run.keep_needed_levels();
         Ok(run)
@@ -238,6 +254,7 @@ impl<'a> Run<'a> {
             dropped: 0,
             filled: 0,
             sparse_voxels: 0,
+            intersecting: None,
             timings: StageTimings { partitioning: self.part_times[0], ..StageTimings::default() },
         };
         (state, report)
@@ -278,6 +295,7 @@ impl<'a> Run<'a> {
             dropped: 0,
             filled,
             sparse_voxels,
+            intersecting: None,
             timings: StageTimings {
                 partitioning: self.part_times.get(j as usize).copied().unwrap_or_default() + gap_time,
                 ..StageTimings::default()
@@ -359,7 +377,8 @@ impl<'a> Run<'a> {
         rep: &mut LevelReport,
         stage: &mut dyn FnMut(Stage),
     ) -> Result<LevelState, Error> {
-        let finest = self.finest;
+        // The auto choice never builds a level past the limit: only this level is checked.
+        let finest = if self.auto.is_some() { j } else { self.finest };
         let faces = (prev.quads.len() as u64).saturating_mul(4u64.saturating_pow(finest - j + 1));
         if faces > self.opts.max_faces.min(u64::from(u32::MAX / 4)) {
             return Err(Error::TooManyFaces { level: finest, faces, max: self.opts.max_faces });
@@ -387,8 +406,11 @@ impl<'a> Run<'a> {
         let planes = self.map_vertices(j, rep.kind, next);
         rep.timings.mapping = t.elapsed();
         let opts = self.opts;
-        let fit_here = opts.fit_passes > 0 && next.quads.len() <= opts.fit_max_faces;
-        if j == self.finest && !fit_here {
+        // The auto choice's levels past the trusted one are fitted whatever their size: they
+        // are kept only when they come closer to the points.
+        let auto_extra = self.auto.as_ref().is_some_and(|a| a.measures(j) && j > self.trusted);
+        let fit_here = opts.fit_passes > 0 && (next.quads.len() <= opts.fit_max_faces || auto_extra);
+        if j == self.finest && !fit_here && self.auto.is_none() {
             // Freed before the relaxation's buffers and the output's conversions (this keeps the
             // finest level's peak down).
             self.tree.release();
@@ -400,11 +422,28 @@ impl<'a> Run<'a> {
         drop(planes);
         if fit_here {
             self.fit_to_points(j, rep.kind, next);
-            if j == self.finest {
+            if j == self.finest && self.auto.is_none() {
                 self.tree.release();
             }
         }
         rep.timings.relaxation = t.elapsed();
+    }
+
+    /// [`MaxLevel::Auto`] past the trusted level (module `autolevel`): measures level `j` and
+    /// decides whether it is the finest, or dropped, or a deeper level follows (`run.finest`
+    /// follows the decision).
+    fn auto_level(&mut self, j: u32, next: &LevelState) -> autolevel::Verdict {
+        let Some(auto) = self.auto.as_mut().filter(|a| a.measures(j)) else {
+            return autolevel::Verdict::Continue;
+        };
+        let rms = autolevel::rms_to_mesh(&self.tree.points, &next.quads, &next.positions, voxel_size(j));
+        let verdict = auto.verdict(j, next.quads.len(), rms);
+        match verdict {
+            autolevel::Verdict::Continue => {}
+            autolevel::Verdict::Stop => self.finest = j,
+            autolevel::Verdict::Drop => self.finest = j - 1,
+        }
+        verdict
     }
 
     /// §3.6: maps the vertices of level `j` onto tangent planes of the points; returns each
@@ -498,6 +537,20 @@ fn extract_with_splits(
         origins.retain(|_| keep.next().unwrap_or(true));
         rep.dropped += before - slots.len();
     }
+}
+
+/// Beyond the paper: repairs the intersecting faces of a level (module `untangle`), in world
+/// coordinates (where the validator tests them), when it has at most
+/// [`ReconOptions::untangle_max_faces`] faces.
+fn untangle_level(level: &mut Level, opts: &ReconOptions, rep: &mut LevelReport) {
+    if level.mesh.faces.len() > opts.untangle_max_faces {
+        return;
+    }
+    let t = Instant::now();
+    let quads: Vec<[u32; 4]> = level.mesh.faces.iter().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let u = untangle::untangle(&quads, &mut level.mesh.vertices.positions);
+    rep.intersecting = Some((u.before, u.after));
+    rep.timings.relaxation += t.elapsed();
 }
 
 /// A lattice corner as a point (in voxels of its level).

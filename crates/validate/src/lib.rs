@@ -96,6 +96,15 @@ pub fn validate_mesh(mesh: &Mesh, opts: &ValidateOptions) -> MeshReport {
     }
 }
 
+/// The face pairs `(f, g)`, `f < g`, that intersect beyond their shared edge or vertex, sorted:
+/// the `self_intersections` check alone (faces with fewer than 3 corners or an index out of
+/// range are left out).
+pub fn intersecting_face_pairs(mesh: &Mesh) -> Vec<(u32, u32)> {
+    let n = mesh.vertex_count();
+    let usable: Vec<bool> = mesh.faces.iter().map(|f| f.len() >= 3 && f.iter().all(|&i| (i as usize) < n)).collect();
+    intersect::self_intersections(mesh, &usable)
+}
+
 /// The checks of every level of a hierarchy, plus its parent links.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct HierarchyReport {

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use octowrap_format::Quantization;
 use octowrap_io::{Format, WriteOptions};
-use octowrap_recon::{AUTO_CAP, DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
+use octowrap_recon::{
+    AUTO_CAP, AutoChoice, AutoStop, DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage,
+};
 
 use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
@@ -25,9 +27,14 @@ use crate::progress;
 /// only their corners, come close to the points (on the Stanford bunny the coarse levels' error
 /// falls 1.5-3x).
 ///
-/// By default the finest level is the deepest the sampling density supports (--max-level auto):
-/// the last level where the median cell holds at least 8 points. Asking for a deeper --level
-/// subdivides the last supported level and maps the new vertices onto the points.
+/// The finest level by default (--max-level auto) starts from the deepest level the sampling
+/// density supports, the last where the median cell holds at least 8 points, and goes on past
+/// it by subdivision, mapping the new vertices onto the points and fitting them, while each
+/// level brings the mesh at least 1.5x closer to the points (RMS distance; a level that does
+/// not is dropped) and before the mesh outgrows the data: no level with more than 3 faces per
+/// input point, at most 3 levels past the supported one (--auto-min-gain, --auto-faces-per-point).
+/// The chosen level and the reason are printed on standard error. A number (--level N or
+/// --max-level N) builds exactly that many levels, subdividing past the supported one.
 /// --region-levels N goes up to N levels past that limit where some region is still dense: the
 /// dense regions are wrapped, the sparse ones subdivided inside the same mesh (crack-free), so
 /// unevenly sampled scans get finer where their points allow (slower: the wrapped levels cost
@@ -66,9 +73,17 @@ pub struct Args {
     #[arg(long, short = 'l', value_name = "N", conflicts_with = "max_level",
           value_parser = clap::value_parser!(u32).range(1..=i64::from(DEEPEST_LEVEL)))]
     pub level: Option<u32>,
-    /// Finest level: `auto` (the deepest the sampling density supports) or a number, 1 to 20.
+    /// Finest level: `auto` (past the deepest level the sampling density supports while the
+    /// error keeps falling, see above) or a number, 1 to 20.
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_max_level)]
     pub max_level: MaxLevel,
+    /// --max-level auto keeps a subdivided level only when it is at least this many times closer
+    /// to the points than its parent (RMS; 1 or more).
+    #[arg(long, value_name = "X", default_value_t = ReconOptions::default().auto_min_gain, value_parser = parse_gain)]
+    pub auto_min_gain: f64,
+    /// --max-level auto builds no level with more faces than this many per input point.
+    #[arg(long, value_name = "X", default_value_t = ReconOptions::default().auto_faces_per_point, value_parser = parse_density)]
+    pub auto_faces_per_point: f64,
     /// Write this level to a PLY/OBJ/OFF/STL output instead of the finest (0 = the root cube; at
     /// most the finest level asked for). An .mrq output holds every level.
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=i64::from(DEEPEST_LEVEL)))]
@@ -141,6 +156,14 @@ fn parse_density(s: &str) -> anyhow::Result<f64> {
     Ok(tau)
 }
 
+fn parse_gain(s: &str) -> anyhow::Result<f64> {
+    let v: f64 = s.trim().parse().with_context(|| format!("'{s}' is not a number"))?;
+    if !(v.is_finite() && v >= 1.0) {
+        bail!("the least gain per level must be a number of at least 1, not {s}");
+    }
+    Ok(v)
+}
+
 fn parse_max_level(s: &str) -> anyhow::Result<MaxLevel> {
     if s.eq_ignore_ascii_case("auto") {
         return Ok(MaxLevel::Auto);
@@ -166,6 +189,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.fit_max_faces = args.fit_max_faces;
     opts.region_levels = args.region_levels;
     opts.region_density = args.region_density;
+    opts.auto_min_gain = args.auto_min_gain;
+    opts.auto_faces_per_point = args.auto_faces_per_point;
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
     }
@@ -195,6 +220,9 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     });
     bar.finish_and_clear();
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
+    if let Some(a) = &r.auto {
+        say!("{}", auto_message(a, points.len(), &opts));
+    }
     let mut mrq_opts = args.mrq.options(false, &args.input);
     if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
         mrq_opts.quantization =
@@ -287,6 +315,30 @@ fn check_options(args: &Args, is_mrq: bool, to: Option<Format>) -> anyhow::Resul
         }
     }
     Ok(())
+}
+
+/// The line saying which level --max-level auto chose and why.
+fn auto_message(a: &AutoChoice, points: usize, opts: &ReconOptions) -> String {
+    let why = match a.stop {
+        AutoStop::SmallGain { level, gain } => format!(
+            "level {level} was only {gain:.2}x closer to the points than level {} (at least {}x is worth its 4x faces)",
+            level - 1,
+            opts.auto_min_gain
+        ),
+        AutoStop::TooManyFaces { next_faces } => format!(
+            "level {} would have {next_faces} faces, more than {} per input point ({points} points)",
+            a.level + 1,
+            opts.auto_faces_per_point
+        ),
+        AutoStop::Deepest => "it is the deepest level auto builds".to_owned(),
+    };
+    let steps: Vec<String> = a.errors.iter().map(|(j, e)| format!("L{j} {e:.3e}")).collect();
+    format!(
+        "finest level {} (auto: the density supports level {}; points-to-mesh RMS {}): {why}",
+        a.level,
+        a.trusted,
+        steps.join(", ")
+    )
 }
 
 /// The per-level, per-stage table (seconds), like the paper's Table 2.
