@@ -103,7 +103,14 @@ impl Stream {
     /// A stream that fetches levels while their estimated decoding memory
     /// ([`Stream::memory_estimate`]) stays within `budget_bytes`.
     pub fn new(budget_bytes: u64) -> Self {
-        Self { bytes: Vec::new(), file_len: None, info: None, preamble_len: None, budget_bytes, limits: Limits::default() }
+        Self {
+            bytes: Vec::new(),
+            file_len: None,
+            info: None,
+            preamble_len: None,
+            budget_bytes,
+            limits: Limits::default(),
+        }
     }
 
     /// Bytes received (the prefix `0..held`).
@@ -147,7 +154,9 @@ impl Stream {
                     self.info = Some(info);
                 }
                 // The preamble is not all in yet: the error says how much it needs.
-                Err(DecodeError::Truncated { offset, needed, got, .. }) if got < needed && offset + got == self.held() => {
+                Err(DecodeError::Truncated { offset, needed, got, .. })
+                    if got < needed && offset + got == self.held() =>
+                {
                     self.preamble_len = Some(offset + needed);
                 }
                 Err(e) => return Err(e.into()),

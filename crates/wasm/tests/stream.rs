@@ -32,7 +32,9 @@ fn drive(s: &mut Stream, served: &[u8]) -> (Vec<Range<u64>>, Vec<u32>, Option<St
         };
         ranges.push(r.clone());
         let end = (r.end as usize).min(served.len());
-        if let Err(e) = s.set_file_len(served.len() as u64).and_then(|()| s.push(r.start, &served[r.start as usize..end])) {
+        if let Err(e) =
+            s.set_file_len(served.len() as u64).and_then(|()| s.push(r.start, &served[r.start as usize..end]))
+        {
             return (ranges, levels, Some(e));
         }
         if let Some(k) = s.ready_level().filter(|&k| levels.last().is_none_or(|&l| k > l)) {
