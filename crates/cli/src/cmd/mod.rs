@@ -9,6 +9,7 @@ pub mod input;
 pub mod mrq;
 pub mod reconstruct;
 pub mod validate;
+pub mod view;
 
 use std::process::ExitCode;
 
@@ -24,5 +25,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(a) => validate::run(&a),
         Command::Decimate(a) => decimate::run(&a),
         Command::Export(a) => export::run(&a),
+        Command::View(a) => view::run(&a),
     }
 }

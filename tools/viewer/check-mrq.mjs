@@ -1,0 +1,151 @@
+// Opens the MRQ viewer (mrq.html, served by `octowrap view`) in headless Chromium and prints one
+// JSON result: the first frame (range requests and bytes before it), every level shown, console
+// errors, the crack check, the decoding speed against draco3d, and the messages for bad input.
+//
+//   node check-mrq.mjs --url URL --mrq FILE.mrq --out DIR
+//                      [--truncated URL] [--corrupted URL] [--chromium PATH]
+//
+// --url is the page URL `octowrap view FILE.mrq --no-open` printed; --mrq the same file (for the
+// Draco copy of its finest level); --truncated and --corrupted are pages of other `view`
+// servers showing damaged copies. A server without range support and a missing file are tested
+// here: the first with a small server of this script's own, the second with the page's server.
+// Screenshots go to DIR. Exit 0 with the JSON, 1 when the main page failed, 2 when nothing ran.
+import http from 'node:http';
+import { mkdtemp, readFile, rm } from 'node:fs/promises';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+import draco3d from 'draco3d';
+
+const args = {};
+for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
+if (!args.url || !args.mrq || !args.out) {
+  console.error('usage: node check-mrq.mjs --url URL --mrq FILE.mrq --out DIR [--truncated URL] [--corrupted URL]');
+  process.exit(2);
+}
+const root = path.dirname(fileURLToPath(import.meta.url));
+const exe = args.chromium || '/usr/bin/chromium';
+
+// The finest level decoded by the same WebAssembly module in Node, then Draco-coded (draco3d's
+// encoder: 14-bit positions, the default speed), for the decoding comparison in the page.
+async function dracoOfFinest(file) {
+  const wasm = await import(path.join(root, 'pkg/octowrap_wasm.js'));
+  wasm.initSync({ module: await readFile(path.join(root, 'pkg/octowrap_wasm_bg.wasm')) });
+  const bytes = new Uint8Array(await readFile(file));
+  const s = new wasm.MrqStream(Number.MAX_SAFE_INTEGER);
+  s.setFileLength(bytes.length);
+  s.push(0, bytes);
+  const m = s.decode(s.levelCount() - 1);
+  const positions = m.takePositions();
+  const indices = m.takeTriangles();
+  const enc = await draco3d.createEncoderModule({});
+  const mesh = new enc.Mesh();
+  const builder = new enc.MeshBuilder();
+  builder.AddFacesToMesh(mesh, indices.length / 3, indices);
+  builder.AddFloatAttributeToMesh(mesh, enc.POSITION, positions.length / 3, 3, positions);
+  const encoder = new enc.Encoder();
+  encoder.SetAttributeQuantization(enc.POSITION, 14);
+  const out = new enc.DracoInt8Array();
+  const n = encoder.EncodeMeshToDracoBuffer(mesh, out);
+  if (n <= 0) throw new Error('draco3d could not encode the finest level');
+  const drc = new Uint8Array(n);
+  for (let i = 0; i < n; i++) drc[i] = out.GetValue(i);
+  enc.destroy(out);
+  enc.destroy(encoder);
+  enc.destroy(builder);
+  enc.destroy(mesh);
+  return { drc, vertices: positions.length / 3, triangles: indices.length / 3 };
+}
+
+// A static server that ignores Range: every GET gets the whole file with 200.
+function noRangeServer(file) {
+  const server = http.createServer(async (req, res) => {
+    const body = await readFile(file);
+    res.writeHead(200, {
+      'content-type': 'application/octet-stream', 'access-control-allow-origin': '*',
+      'access-control-allow-headers': 'range', 'content-length': body.length,
+    });
+    res.end(req.method === 'OPTIONS' ? undefined : body);
+  });
+  return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok(server)));
+}
+
+const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-chromium-'));
+let context;
+let code = 0;
+let plain;
+const result = {};
+try {
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: exe,
+    headless: true,
+    viewport: { width: 800, height: 600 },
+    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+      '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+  // Opens `url`, waits until the stream ends (done or error), returns the page's state.
+  const open = async (url, name) => {
+    const page = await context.newPage();
+    const errors = [];
+    const requests = [];
+    page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+    page.on('pageerror', (e) => errors.push(String(e)));
+    context.on('request', (r) => { if (r.headers().range) requests.push(r.headers().range); });
+    await page.goto(url);
+    const t0 = Date.now();
+    await page.waitForFunction(() => window.octowrap && (window.octowrap.done || window.octowrap.error), null, { timeout: 60000 });
+    const state = await page.evaluate(() => {
+      const s = window.octowrap;
+      return { done: s.done, error: s.error, firstFrame: s.firstFrame, shown: s.shown, stats: s.stats,
+        fileSize: s.fileSize, levels: s.info ? s.info.levels.length : null, panel: document.getElementById('panel').textContent,
+        message: document.getElementById('error').textContent };
+    });
+    state.waitMs = Date.now() - t0;
+    state.consoleErrors = errors;
+    state.rangeHeaders = requests.slice();
+    state.screenshot = path.join(args.out, `mrq-${name}.png`);
+    await page.screenshot({ path: state.screenshot });
+    return { page, state };
+  };
+
+  const { page, state } = await open(args.url, 'streamed');
+  result.main = state;
+  if (state.error) {
+    code = 1;
+  } else {
+    result.crack = await page.evaluate(() => window.octowrap.crackCheck());
+    await page.evaluate(() => window.octowrap.setView([0.1, 0.6, 0.4], 1.2));
+    await page.screenshot({ path: path.join(args.out, 'mrq-close.png') });
+    const { drc, vertices } = await dracoOfFinest(args.mrq);
+    await page.addScriptTag({ path: path.join(root, 'node_modules/draco3d/draco_decoder_nodejs.js') });
+    result.bench = await page.evaluate(async (d) => window.octowrap.bench(new Uint8Array(d)), Array.from(drc));
+    result.bench.drcBytes = drc.length;
+    result.bench.nodeVertices = vertices;
+  }
+  await page.close();
+
+  // Bad input: each must end with a message in the page, not hang.
+  result.bad = {};
+  const bad = async (name, url) => {
+    const { page: p, state: s } = await open(url, name);
+    result.bad[name] = { error: s.error, shown: s.shown.map((l) => l.level), waitMs: s.waitMs, consoleErrors: s.consoleErrors };
+    await p.close();
+  };
+  const base = new URL(args.url);
+  await bad('notfound', new URL('/mrq.html?src=/data/missing.mrq', base).href);
+  plain = await noRangeServer(args.mrq);
+  await bad('norange', new URL(`/mrq.html?src=${encodeURIComponent(`http://127.0.0.1:${plain.address().port}/file.mrq`)}`, base).href);
+  if (args.truncated) await bad('truncated', args.truncated);
+  if (args.corrupted) await bad('corrupted', args.corrupted);
+  await bad('nosrc', new URL('/mrq.html', base).href);
+} catch (err) {
+  console.error(`check-mrq.mjs: ${err && err.stack ? err.stack : err}`);
+  code = 2;
+} finally {
+  if (context) await context.close();
+  if (plain) plain.close();
+  await rm(profile, { recursive: true, force: true });
+}
+process.stdout.write(JSON.stringify(result) + '\n');
+process.exit(code);

@@ -1,0 +1,307 @@
+// The MRQ viewer: streams `?src=URL.mrq` level by level (coarse first) through HTTP range
+// requests, decoded by the WebAssembly stream (crates/wasm) in a Web Worker, and shows each level
+// as soon as its bytes are in, replacing (and freeing) the one before. Orbit controls; a panel with
+// bytes fetched, requests, levels, faces, frame rate and the memory estimate against the budget.
+//
+//   mrq.html?src=URL.mrq[&budget=MB]        budget: decoding memory in MiB (default 512)
+//
+// `window.octowrap` is the page's state for tests (tools/viewer/check-mrq.mjs): ready, done,
+// error, firstFrame, shown, stats, and `crackCheck`, `bench`, `setView`.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+
+const FOV = 45;
+const BACKGROUND = new THREE.Color(0x1e2630);
+const params = new URLSearchParams(location.search);
+const src = params.get('src');
+const budgetMiB = Number(params.get('budget') || 512);
+const panel = document.getElementById('panel');
+const errorBox = document.getElementById('error');
+const state = {
+  ready: false, done: false, error: null, src, budget: budgetMiB * 2 ** 20,
+  info: null, shown: [], firstFrame: null, stats: { requests: 0, bytes: 0 }, fps: 0, fileSize: null,
+};
+window.octowrap = state;
+
+const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+renderer.setPixelRatio(1);
+renderer.setSize(window.innerWidth, window.innerHeight);
+document.body.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = BACKGROUND;
+scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 1.6));
+const camera = new THREE.PerspectiveCamera(FOV, window.innerWidth / window.innerHeight, 0.01, 1000);
+const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+sun.position.set(0.5, 1, 1);
+camera.add(sun);
+scene.add(camera);
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.enableDamping = true;
+const material = new THREE.MeshStandardMaterial({ color: 0xc8b89a, flatShading: true, roughness: 0.8 });
+let mesh = null;
+let framed = null; // the bounding sphere the camera was framed on
+
+window.addEventListener('resize', () => {
+  camera.aspect = window.innerWidth / window.innerHeight;
+  camera.updateProjectionMatrix();
+  renderer.setSize(window.innerWidth, window.innerHeight);
+});
+
+let frames = 0;
+let fpsStart = performance.now();
+function loop(now) {
+  controls.update();
+  renderer.render(scene, camera);
+  frames += 1;
+  if (now - fpsStart >= 1000) {
+    state.fps = Math.round((frames * 1000) / (now - fpsStart));
+    frames = 0;
+    fpsStart = now;
+    updatePanel();
+  }
+  requestAnimationFrame(loop);
+}
+
+function kb(n) {
+  return n >= 1 << 20 ? `${(n / 2 ** 20).toFixed(1)} MB` : `${(n / 1024).toFixed(1)} KB`;
+}
+
+function updatePanel() {
+  const s = state.stats;
+  const info = state.info;
+  const last = state.shown[state.shown.length - 1];
+  const total = state.fileSize;
+  const lines = [
+    `${src}`,
+    `bytes fetched  ${kb(s.bytes)}${total ? ` of ${kb(total)} (${((100 * s.bytes) / total).toFixed(0)} %)` : ''} in ${s.requests} range requests`,
+    `level          ${last ? last.level : '–'} of ${info ? info.levels.length - 1 : '?'}${state.done ? '' : ' (streaming)'}`,
+    `chunks         whole levels (${state.shown.length} decoded)`,
+    `faces          ${last ? last.faces.toLocaleString('en') : '–'} (${last ? last.triangles.toLocaleString('en') : '–'} triangles)`,
+    `memory         ~${kb(last ? info.levels[last.level].memory : 0)} of ${kb(state.budget)} budget`,
+    `frame rate     ${state.fps} fps`,
+  ];
+  panel.textContent = lines.join('\n');
+}
+
+function fail(message) {
+  state.error = message;
+  errorBox.textContent = `error: ${message}`;
+  updatePanel();
+}
+
+function frame(geometry) {
+  geometry.computeBoundingSphere();
+  const sphere = geometry.boundingSphere;
+  framed = sphere.clone();
+  state.radius = sphere.radius;
+  state.setView([0.25, 0.3, 1], 2.6);
+}
+
+// Places the camera `factor` radii from the framed centre along `dir`.
+state.setView = (dir, factor) => {
+  if (!framed) return;
+  const d = new THREE.Vector3(...dir).normalize();
+  const distance = framed.radius * factor;
+  controls.target.copy(framed.center);
+  camera.position.copy(framed.center).addScaledVector(d, distance);
+  camera.near = Math.max(distance / 100, 1e-6);
+  camera.far = distance + framed.radius * 4;
+  camera.updateProjectionMatrix();
+  camera.lookAt(framed.center);
+  controls.update();
+  renderer.render(scene, camera);
+};
+
+function geometryOf(positions, indices) {
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  g.setIndex(new THREE.BufferAttribute(indices, 1));
+  return g;
+}
+
+function show(msg) {
+  const g = geometryOf(msg.positions, msg.indices);
+  if (mesh) {
+    // Eviction: the coarser level's arrays leave the GPU and the heap.
+    mesh.geometry.dispose();
+    scene.remove(mesh);
+  }
+  mesh = new THREE.Mesh(g, material);
+  scene.add(mesh);
+  if (!framed) frame(g);
+  renderer.render(scene, camera);
+  state.stats = msg.stats;
+  state.fileSize = msg.stats.total;
+  const entry = { level: msg.level, vertices: msg.vertices, faces: msg.faces, triangles: msg.triangles,
+    decodeMs: msg.decodeMs, requests: msg.stats.requests, bytes: msg.stats.bytes, ms: performance.now() };
+  state.shown.push(entry);
+  if (!state.firstFrame) {
+    state.firstFrame = entry;
+    state.ready = true;
+  }
+  updatePanel();
+}
+
+// Renders `object` alone, flat white on black, and returns which pixels it covers.
+function coverMask(object) {
+  const saved = { bg: scene.background, material: object.material, children: scene.children.slice() };
+  scene.background = new THREE.Color(0x000000);
+  for (const c of saved.children) if (c !== camera) scene.remove(c);
+  object.material = new THREE.MeshBasicMaterial({ color: 0xffffff });
+  scene.add(object);
+  renderer.render(scene, camera);
+  const gl = renderer.getContext();
+  const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
+  const px = new Uint8Array(w * h * 4);
+  gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  const mask = new Uint8Array(w * h);
+  for (let i = 0; i < mask.length; i++) mask[i] = px[4 * i] > 127 ? 1 : 0;
+  object.material.dispose();
+  object.material = saved.material;
+  scene.remove(object);
+  for (const c of saved.children) if (c !== camera) scene.add(c);
+  scene.background = saved.bg;
+  return mask;
+}
+
+let wasmModule = null;
+async function wasm() {
+  if (!wasmModule) {
+    wasmModule = await import('./pkg/octowrap_wasm.js');
+    await wasmModule.default({ module_or_path: new URL('./pkg/octowrap_wasm_bg.wasm', import.meta.url) });
+  }
+  return wasmModule;
+}
+
+// The whole file in one plain GET, decoded to its finest level on this thread.
+async function finestOf(bytes) {
+  const { MrqStream } = await wasm();
+  const s = new MrqStream(Number.MAX_SAFE_INTEGER);
+  s.setFileLength(bytes.length);
+  s.push(0, bytes);
+  const k = s.levelCount() - 1;
+  const m = s.decode(k);
+  const out = { level: k, vertices: m.vertices(), positions: m.takePositions(), indices: m.takeTriangles() };
+  m.free();
+  s.free();
+  return out;
+}
+
+// The crack check: pixels covered by a render of the finest level (decoded from the whole file)
+// but not by the streamed view, from the same camera, as a fraction of the finest level's pixels.
+state.crackCheck = async () => {
+  const bytes = new Uint8Array(await (await fetch(src, { cache: 'no-store' })).arrayBuffer());
+  const ref = await finestOf(bytes);
+  const refMesh = new THREE.Mesh(geometryOf(ref.positions, ref.indices));
+  const streamed = coverMask(mesh);
+  const finest = coverMask(refMesh);
+  refMesh.geometry.dispose();
+  let covered = 0, missing = 0, extra = 0;
+  for (let i = 0; i < finest.length; i++) {
+    covered += finest[i];
+    if (finest[i] && !streamed[i]) missing++;
+    if (streamed[i] && !finest[i]) extra++;
+  }
+  renderer.render(scene, camera);
+  return { referenceLevel: ref.level, covered, missing, extra, fraction: covered ? missing / covered : 1 };
+};
+
+// Decoding speed on this page's main thread: the WebAssembly stream decoding the finest level
+// from the whole file (the coarser levels included, as the format requires), against the draco3d
+// decoder on `drc` (the same level, Draco-coded), each to typed arrays; the median of `runs`.
+state.bench = async (drcBytes, runs = 9) => {
+  const bytes = new Uint8Array(await (await fetch(src, { cache: 'no-store' })).arrayBuffer());
+  const median = (xs) => xs.slice().sort((a, b) => a - b)[xs.length >> 1];
+  let vertices = 0;
+  const wasmMs = [];
+  await finestOf(bytes); // warm-up: compile and first-touch memory
+  for (let i = 0; i < runs; i++) {
+    const t0 = performance.now();
+    vertices = (await finestOf(bytes)).vertices;
+    wasmMs.push(performance.now() - t0);
+  }
+  const draco = await dracoDecoder();
+  const dracoMs = [];
+  let dracoVertices = 0;
+  const decodeDraco = () => {
+    const decoder = new draco.Decoder();
+    const buffer = new Uint8Array(drcBytes);
+    const m = new draco.Mesh();
+    const status = decoder.DecodeArrayToMesh(buffer, buffer.length, m);
+    if (!status.ok()) throw new Error(`draco: ${status.error_msg()}`);
+    const n = m.num_points();
+    const attr = decoder.GetAttribute(m, decoder.GetAttributeId(m, draco.POSITION));
+    const ptr = draco._malloc(n * 12);
+    decoder.GetAttributeDataArrayForAllPoints(m, attr, draco.DT_FLOAT32, n * 12, ptr);
+    const positions = new Float32Array(draco.HEAPF32.buffer, ptr, n * 3).slice();
+    draco._free(ptr);
+    const t = m.num_faces() * 3;
+    const iptr = draco._malloc(t * 4);
+    decoder.GetTrianglesUInt32Array(m, t * 4, iptr);
+    const indices = new Uint32Array(draco.HEAPU32.buffer, iptr, t).slice();
+    draco._free(iptr);
+    draco.destroy(m);
+    draco.destroy(decoder);
+    dracoVertices = n;
+    return positions.length + indices.length;
+  };
+  decodeDraco();
+  for (let i = 0; i < runs; i++) {
+    const t0 = performance.now();
+    decodeDraco();
+    dracoMs.push(performance.now() - t0);
+  }
+  const w = median(wasmMs), d = median(dracoMs);
+  return {
+    vertices, dracoVertices, wasmMs: w, dracoMs: d,
+    wasmMVps: vertices / w / 1000, dracoMVps: dracoVertices / d / 1000, speedup: (dracoVertices / d) ? (vertices / w) / (dracoVertices / d) : null,
+  };
+};
+
+// draco3d's decoder (node_modules/draco3d): its Emscripten module run as a classic script.
+let dracoModule = null;
+async function dracoDecoder() {
+  if (!dracoModule) {
+    const base = new URL('./node_modules/draco3d/', import.meta.url);
+    await new Promise((ok, bad) => {
+      const s = document.createElement('script');
+      s.src = new URL('draco_decoder_nodejs.js', base).href;
+      s.onload = ok;
+      s.onerror = () => bad(new Error('cannot load draco3d'));
+      document.head.appendChild(s);
+    });
+    const wasmBinary = await (await fetch(new URL('draco_decoder.wasm', base))).arrayBuffer();
+    dracoModule = await window.DracoDecoderModule({ wasmBinary });
+  }
+  return dracoModule;
+}
+
+function main() {
+  if (!src) {
+    fail('no file given: open mrq.html?src=URL.mrq');
+    return;
+  }
+  requestAnimationFrame(loop);
+  const worker = new Worker(new URL('./mrq-worker.js', import.meta.url), { type: 'module' });
+  worker.onerror = (e) => fail(`the decoder worker failed: ${e.message || 'it could not start (is pkg/ built? tools/viewer/build-wasm.sh)'}`);
+  worker.onmessage = (e) => {
+    const msg = e.data;
+    if (msg.type === 'info') {
+      state.info = { levels: msg.levels, cube: msg.cube };
+    } else if (msg.type === 'level') {
+      show(msg);
+    } else if (msg.type === 'done') {
+      state.stats = msg.stats;
+      state.done = true;
+      updatePanel();
+    } else if (msg.type === 'error') {
+      state.stats = msg.stats;
+      fail(msg.message);
+    }
+  };
+  state.start = performance.now();
+  worker.postMessage({ type: 'open', url: new URL(src, location.href).href, budget: state.budget });
+  updatePanel();
+}
+
+main();
