@@ -6,6 +6,7 @@
 
 use crate::block::{MAX_LINE_SHIFT, Mode, PREDICTOR_LINES, s};
 use crate::bytes::{Planes, Reader, put_planes, zigzag};
+use crate::entropy::values::{put_values, read_values};
 use crate::error::DecodeError;
 use crate::geometry::fixed as fast;
 use crate::geometry::predict::{GeometryScratch, Topo, geometry_pass};
@@ -54,17 +55,27 @@ pub fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<Gr
 /// Writes the layout of a grid level's geometry stream (spec §6.1, §6.6, §6.8): with lines, the
 /// bitmap of line vertices and their parameters, then the other vertices' residuals in coding
 /// order; without, the residuals of every vertex, put back in vertex order (`order` lists the
-/// vertices in coding order).
+/// vertices in coding order). `coded` (mode 3 of version 4, spec §6.9): each value sequence is a
+/// value block instead of a plane block.
 pub fn put_grid_streams(
     g: &mut Vec<u8>,
     lines: Option<(&[u8], &[u64])>,
     mut res: [Vec<u64>; 3],
     order: &[u32],
     nv: usize,
+    coded: bool,
 ) {
+    let put = |g: &mut Vec<u8>, values: &[u64]| {
+        if coded {
+            // Zigzagged values of at most four planes (§6.1): below 2^32.
+            put_values(g, &values.iter().map(|&v| v as u32).collect::<Vec<_>>());
+        } else {
+            put_planes(g, values);
+        }
+    };
     if let Some((flags, params)) = lines {
         g.extend(flags);
-        put_planes(g, params);
+        put(g, params);
     } else {
         for r in &mut res {
             let mut by_vertex = vec![0u64; nv];
@@ -75,17 +86,50 @@ pub fn put_grid_streams(
         }
     }
     for r in &res {
-        put_planes(g, r);
+        put(g, r);
     }
 }
 
+/// Reads a mode 3 geometry stream of version 4 (spec §6.1, §6.9): with lines, the bitmap of line
+/// vertices (unused bits zero), then the value blocks of the line parameters and of the other
+/// vertices' x, y, z residuals, into `values` (`[params, x, y, z]`). Returns the bitmap (empty
+/// without lines).
+pub fn grid_values<'a>(
+    g: &mut Reader<'a>,
+    nv: usize,
+    lines: bool,
+    values: &mut [Vec<u32>; 4],
+) -> Result<&'a [u8], DecodeError> {
+    let mut flags: &[u8] = &[];
+    let mut line_count = 0usize;
+    if lines {
+        flags = g.bytes(nv.div_ceil(8))?;
+        if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
+            return Err(g.invalid("unused line flag bits are not zero"));
+        }
+        line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
+    }
+    let [params, x, y, z] = values;
+    if lines {
+        read_values(g, line_count, params)?;
+    } else {
+        params.clear();
+    }
+    for r in [x, y, z] {
+        read_values(g, nv - line_count, r)?;
+    }
+    Ok(flags)
+}
+
 /// The geometry stream (§6) of a refinement level: the predictor (§6.3), layout and line spacing
-/// (§6.6) that compress best. Returns the block's `predictor` byte, its `line_shift`, and the
-/// parent's canonical quads (lattice levels).
+/// (§6.6) that compress best. Mode 3 levels of version 4 files code their values in value blocks
+/// (§6.9) and compare the variants by their coded size; the others by their size under zstd.
+/// Returns the block's `predictor` byte, its `line_shift`, and the parent's canonical quads
+/// (lattice levels).
 #[allow(clippy::too_many_arguments)]
 pub fn choose_geometry(
     k: u32,
-    mode: Mode,
+    (mode, version): (Mode, u16),
     (bits, exact): (u32, bool),
     level: &PlainLevel,
     parent: &PlainLevel,
@@ -97,34 +141,43 @@ pub fn choose_geometry(
     let quads = if mode.is_lattice() { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
     let mut predictor = 0u8;
     let mut line_shift = 0u32;
-    if !topology_only {
-        st.0[s::GEOMETRY] = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (0, 0)).0;
-        if !exact {
-            // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
-            let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
-            let mut best = size(&st.0[s::GEOMETRY]);
-            let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
-                let n = size(&bytes);
-                if n < best {
-                    best = n;
-                    st.0[s::GEOMETRY] = bytes;
-                    (predictor, line_shift) = variant;
-                }
-            };
-            if mode.is_lattice() {
-                consider(geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (1, 0)).0, (1, 0), st);
-            }
-            let line_predictors: &[u8] = if mode.is_lattice() { &[0, 1] } else { &[0] };
-            for &p in line_predictors {
-                let variant = p | PREDICTOR_LINES;
-                let (bytes, js) = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, 0));
-                consider(bytes, (variant, 0), st);
-                let shift = common_shift(&js);
-                if shift > 0 {
-                    let bytes = geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, (variant, shift)).0;
-                    consider(bytes, (variant, shift), st);
-                }
-            }
+    if topology_only {
+        return (predictor, line_shift, quads);
+    }
+    let coded = mode == Mode::FastLattice && !exact && version >= 4;
+    let stream = |variant: (u8, u32)| {
+        if coded {
+            fast_geometry(level, k, bits, parent, pos, &quads, variant, true)
+        } else {
+            geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, variant)
+        }
+    };
+    st.0[s::GEOMETRY] = stream((0, 0)).0;
+    if exact {
+        return (predictor, line_shift, quads);
+    }
+    // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
+    let size = |b: &[u8]| if coded { b.len() } else { zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len()) };
+    let mut best = size(&st.0[s::GEOMETRY]);
+    let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
+        let n = size(&bytes);
+        if n < best {
+            best = n;
+            st.0[s::GEOMETRY] = bytes;
+            (predictor, line_shift) = variant;
+        }
+    };
+    if mode.is_lattice() {
+        consider(stream((1, 0)).0, (1, 0), st);
+    }
+    let line_predictors: &[u8] = if mode.is_lattice() { &[0, 1] } else { &[0] };
+    for &p in line_predictors {
+        let variant = p | PREDICTOR_LINES;
+        let (bytes, js) = stream((variant, 0));
+        consider(bytes, (variant, 0), st);
+        let shift = common_shift(&js);
+        if shift > 0 {
+            consider(stream((variant, shift)).0, (variant, shift), st);
         }
     }
     (predictor, line_shift, quads)
@@ -145,7 +198,7 @@ pub fn geometry(
 ) -> (Vec<u8>, Vec<i64>) {
     let mut g = Vec::new();
     if mode == Mode::FastLattice && !exact {
-        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift));
+        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift), false);
     }
     if exact {
         for a in 0..3 {
@@ -196,11 +249,13 @@ pub fn geometry(
         order.push(v as u32);
         Ok((t, None))
     });
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv, false);
     (g, js)
 }
 
-/// The geometry stream of a mode 3 level (spec §6.8) of a grid file.
+/// The geometry stream of a mode 3 level (spec §6.8) of a grid file; `coded`: with the value
+/// blocks of version 4 (§6.9).
+#[allow(clippy::too_many_arguments)]
 fn fast_geometry(
     level: &PlainLevel,
     k: u32,
@@ -209,6 +264,7 @@ fn fast_geometry(
     pos: &[u8],
     quads: &[([u32; 4], u8)],
     (predictor, line_shift): (u8, u32),
+    coded: bool,
 ) -> (Vec<u8>, Vec<i64>) {
     let nv = level.q.len();
     let lines = predictor & PREDICTOR_LINES != 0;
@@ -248,7 +304,7 @@ fn fast_geometry(
         Ok(t)
     });
     let mut g = Vec::new();
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv, coded);
     (g, js)
 }
 
