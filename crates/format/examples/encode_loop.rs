@@ -1,7 +1,7 @@
 //! Encodes the hierarchies of MRQ files again, many times (for profiling the encoder alone), on the
 //! file's own grid, and prints the encoder's speed in vertices (all levels) per second on one thread
 //! and whether the output equals the input file:
-//! `cargo run --release -p octowrap-format --example encode_loop -- [-n N] FILE.mrq...`.
+//! `cargo run --release -p octowrap-format --example encode_loop -- [-n N] [-z ZSTD_LEVEL] FILE.mrq...`.
 #![allow(clippy::print_stdout)]
 
 use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode};
@@ -9,8 +9,13 @@ use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let mut n = 5;
-    if args.first().map(String::as_str) == Some("-n") {
-        n = args.get(1).and_then(|s| s.parse().ok()).expect("-n N");
+    let mut zstd_level = None;
+    loop {
+        match args.first().map(String::as_str) {
+            Some("-n") => n = args.get(1).and_then(|s| s.parse().ok()).expect("-n N"),
+            Some("-z") => zstd_level = Some(args.get(1).and_then(|s| s.parse().ok()).expect("-z LEVEL")),
+            _ => break,
+        }
         args.drain(..2);
     }
     for path in &args {
@@ -20,6 +25,9 @@ fn main() {
         let mut opts = EncodeOptions::with_quantization(quantization);
         opts.metadata.source = file.info.metadata.source.clone();
         opts.metadata.generator = file.info.metadata.generator.clone();
+        if let Some(z) = zstd_level {
+            opts.zstd_level = z;
+        }
         let vertices: usize = file.hierarchy.levels.iter().map(|l| l.mesh.vertex_count()).sum();
         let mut out = Vec::new();
         let t = std::time::Instant::now();

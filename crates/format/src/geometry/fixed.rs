@@ -80,15 +80,16 @@ impl FixedLine {
     /// The parameter of grid point `q` when `q` lies on the line (`|j| <= 2^30`).
     pub fn param(&self, q: [i64; 3]) -> Option<i64> {
         let a = self.main_axis();
-        let d = i128::from(q[a].checked_sub(self.base[a])?);
-        let u = i128::from(self.u[a]);
+        let u = self.u[a];
         if u == 0 {
             return None;
         }
+        // Grid coordinates and bases lie within 2^40 (far wider than the grid range), so
+        // `d * 2^F` fits in an i64.
+        let d = q[a].checked_sub(self.base[a]).filter(|d| d.unsigned_abs() < 1 << 40)?;
         // Near d * 2^F / u; the rounding of `point` moves it by less than one.
         let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
         for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
-            let Ok(j) = i64::try_from(j) else { continue };
             if j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q {
                 return Some(j);
             }

@@ -122,8 +122,8 @@ pub fn grid_values<'a>(
 }
 
 /// The geometry stream (§6) of a refinement level: the predictor (§6.3), layout and line spacing
-/// (§6.6) that compress best. Mode 3 levels of version 4 files code their values in value blocks
-/// (§6.9) and compare the variants by their coded size; the others by their size under zstd.
+/// (§6.6) that compress best: mode 3 levels of version 4 files by [`choose_coded`], the others by
+/// their size under zstd.
 /// Returns the block's `predictor` byte, its `line_shift`, and the parent's canonical quads
 /// (lattice levels).
 #[allow(clippy::too_many_arguments)]
@@ -145,19 +145,17 @@ pub fn choose_geometry(
         return (predictor, line_shift, quads);
     }
     let coded = mode == Mode::FastLattice && !exact && version >= 4;
-    let stream = |variant: (u8, u32)| {
-        if coded {
-            fast_geometry(level, k, bits, parent, pos, &quads, variant, true)
-        } else {
-            geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, variant)
-        }
-    };
+    if coded {
+        (predictor, line_shift) = choose_coded(level, k, bits, parent, pos, &quads, st);
+        return (predictor, line_shift, quads);
+    }
+    let stream = |variant: (u8, u32)| geometry(level, mode, k, bits, exact, Some(parent), pos, &quads, variant);
     st.0[s::GEOMETRY] = stream((0, 0)).0;
     if exact {
         return (predictor, line_shift, quads);
     }
     // Keep whichever predictor (spec §6.3), layout and line spacing (§6.6) compresses best.
-    let size = |b: &[u8]| if coded { b.len() } else { zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len()) };
+    let size = |b: &[u8]| zstd::bulk::compress(b, 3).map_or(b.len(), |c| c.len());
     let mut best = size(&st.0[s::GEOMETRY]);
     let mut consider = |bytes: Vec<u8>, variant: (u8, u32), st: &mut Streams| {
         let n = size(&bytes);
@@ -181,6 +179,139 @@ pub fn choose_geometry(
         }
     }
     (predictor, line_shift, quads)
+}
+
+/// The values of a mode 3 level's geometry under one lattice predictor and line spacing (spec
+/// §6.8), for both layouts of §6.1 (their predictions are the same): per vertex in coding order
+/// its line parameter when it lies on its line, and its residuals always.
+struct FastValues {
+    /// Line flags (§6.1).
+    flags: Vec<u8>,
+    /// Zigzagged line parameter differences of the line vertices, in coding order.
+    params: Vec<u32>,
+    /// The line vertices' parameters.
+    js: Vec<i64>,
+    /// Zigzagged residuals of the other vertices, in coding order.
+    line_residuals: [Vec<u32>; 3],
+    /// Zigzagged residuals of every vertex, by vertex index.
+    residuals: [Vec<u32>; 3],
+    /// Estimated bits of the layout with lines and of the one without.
+    cost: (u64, u64),
+}
+
+/// Estimated bits of a value (its Elias gamma code): enough to rank layouts and predictors.
+#[inline]
+fn gamma_bits(x: u32) -> u64 {
+    u64::from(2 * (32 - (x + 1).leading_zeros()) - 1)
+}
+
+/// One pass of spec §6.8 over a mode 3 level (lines on, so that both layouts come out of it).
+#[allow(clippy::too_many_arguments)]
+fn fast_values(
+    level: &PlainLevel,
+    k: u32,
+    bits: u32,
+    parent: &PlainLevel,
+    contexts: &fast::Contexts,
+    quads: &[([u32; 4], u8)],
+    (predictor, line_shift): (u8, u32),
+) -> FastValues {
+    let nv = level.q.len();
+    let topo = fast::FastTopo {
+        level: k,
+        bits,
+        indices: &level.indices,
+        slots: level.slots.as_deref().unwrap_or_default(),
+        vertex_corners: level.corners.as_deref().unwrap_or_default(),
+        contexts,
+        parent_quads: quads,
+        lines: true,
+        line_shift,
+        predictor,
+    };
+    let target = &level.q;
+    let mut out = FastValues {
+        flags: vec![0u8; nv.div_ceil(8)],
+        params: Vec::with_capacity(nv),
+        js: Vec::with_capacity(nv),
+        line_residuals: [Vec::new(), Vec::new(), Vec::new()],
+        residuals: [vec![0; nv], vec![0; nv], vec![0; nv]],
+        cost: (nv as u64, 0),
+    };
+    let mut q = vec![[0i64; 3]; nv];
+    let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
+        let t = target[v];
+        let r = [0, 1, 2].map(|a| zigzag(t[a] - pr.point[a]) as u32);
+        let rc: u64 = r.iter().map(|&x| gamma_bits(x)).sum();
+        for a in 0..3 {
+            out.residuals[a][v] = r[a];
+        }
+        out.cost.1 += rc;
+        let on_line =
+            pr.line.and_then(|l| l.param(t)).and_then(|j| u32::try_from(zigzag(j - pr.param)).ok().map(|z| (j, z)));
+        if let Some((j, z)) = on_line {
+            out.flags[v / 8] |= 1 << (v % 8);
+            out.params.push(z);
+            out.js.push(j);
+            out.cost.0 += gamma_bits(z);
+        } else {
+            for a in 0..3 {
+                out.line_residuals[a].push(r[a]);
+            }
+            out.cost.0 += rc;
+        }
+        Ok(t)
+    });
+    out
+}
+
+/// The geometry stream of a mode 3 level of a version 4 grid file (spec §6.1, §6.8, §6.9): both
+/// lattice predictors, with and without lines, and a coarser line spacing where the parameters
+/// allow it, ranked by their estimated coded size (one prediction pass per predictor); the best
+/// is range coded. Returns the `predictor` byte and `line_shift`.
+fn choose_coded(
+    level: &PlainLevel,
+    k: u32,
+    bits: u32,
+    parent: &PlainLevel,
+    pos: &[u8],
+    quads: &[([u32; 4], u8)],
+    st: &mut Streams,
+) -> (u8, u32) {
+    let nv = level.q.len();
+    let mut contexts = fast::Contexts::default();
+    fast::contexts(&level.indices, &level.parents, &level.quadrants, pos, quads, nv, &mut contexts);
+    // Candidates (estimated bits, predictor byte, line_shift, pass), the first of equal ones kept.
+    let mut passes = Vec::new();
+    let mut candidates = Vec::new();
+    for p in [0u8, 1] {
+        let values = fast_values(level, k, bits, parent, &contexts, quads, (p, 0));
+        let shift = common_shift(&values.js);
+        candidates.push((values.cost.1, p, 0, passes.len()));
+        candidates.push((values.cost.0, p | PREDICTOR_LINES, 0, passes.len()));
+        passes.push(values);
+        if shift > 0 {
+            let shifted = fast_values(level, k, bits, parent, &contexts, quads, (p, shift));
+            candidates.push((shifted.cost.0, p | PREDICTOR_LINES, shift, passes.len()));
+            passes.push(shifted);
+        }
+    }
+    let &(_, predictor, line_shift, i) = candidates.iter().min_by_key(|c| c.0).expect("candidates");
+    let values = &passes[i];
+    let g = &mut st.0[s::GEOMETRY];
+    g.clear();
+    if predictor & PREDICTOR_LINES != 0 {
+        g.extend(&values.flags);
+        put_values(g, &values.params);
+        for r in &values.line_residuals {
+            put_values(g, r);
+        }
+    } else {
+        for r in &values.residuals {
+            put_values(g, r);
+        }
+    }
+    (predictor, line_shift)
 }
 
 /// The geometry stream (§6.1) of a level under the given predictor.
