@@ -1,7 +1,8 @@
 //! Encodes the hierarchies of MRQ files again, many times (for profiling the encoder alone), on the
 //! file's own grid, and prints the encoder's speed in vertices (all levels) per second on one thread
 //! and whether the output equals the input file:
-//! `cargo run --release -p octowrap-format --example encode_loop -- [-n N] [-z ZSTD_LEVEL] FILE.mrq...`.
+//! `cargo run --release -p octowrap-format --example encode_loop -- [-n N] [-z ZSTD_LEVEL] [-o DIR] FILE.mrq...`
+//! (`-o`: also writes each output to DIR under its input's name).
 #![allow(clippy::print_stdout)]
 
 use octowrap_format::{DecodeOptions, EncodeOptions, Quantization, decode, encode};
@@ -10,10 +11,12 @@ fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let mut n = 5;
     let mut zstd_level = None;
+    let mut out_dir = None;
     loop {
         match args.first().map(String::as_str) {
             Some("-n") => n = args.get(1).and_then(|s| s.parse().ok()).expect("-n N"),
             Some("-z") => zstd_level = Some(args.get(1).and_then(|s| s.parse().ok()).expect("-z LEVEL")),
+            Some("-o") => out_dir = Some(std::path::PathBuf::from(args.get(1).expect("-o DIR"))),
             _ => break,
         }
         args.drain(..2);
@@ -35,6 +38,10 @@ fn main() {
             out = encode(&file.hierarchy, &opts).expect("encodes");
         }
         let s = t.elapsed().as_secs_f64() / n.max(1) as f64;
+        if let Some(dir) = &out_dir {
+            let name = std::path::Path::new(path).file_name().expect("a file name");
+            std::fs::write(dir.join(name), &out).expect("writes");
+        }
         let again = decode(&out[..], &DecodeOptions::default()).expect("decodes its own output");
         let same = again
             .hierarchy
