@@ -26,8 +26,8 @@ fn main() {
         let file = decode(&bytes[..], &DecodeOptions::default()).expect("decodes");
         let quantization = file.info.grid.map_or(Quantization::Exact, |g| Quantization::Bits(g.bits));
         let mut opts = EncodeOptions::with_quantization(quantization);
-        opts.metadata.source = file.info.metadata.source.clone();
-        opts.metadata.generator = file.info.metadata.generator.clone();
+        opts.metadata.source.clone_from(&file.info.metadata.source);
+        opts.metadata.generator.clone_from(&file.info.metadata.generator);
         if let Some(z) = zstd_level {
             opts.zstd_level = z;
         }

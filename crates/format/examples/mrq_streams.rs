@@ -1,10 +1,12 @@
 //! Where the bits of an MRQ file go: per level and per stream (spec §4.2), the stream's raw bytes,
 //! its size compressed alone with zstd (level 19), and the geometry stream's parts (line flags,
-//! line parameters, residuals) with the order-0 entropy of their values, in bits per finest vertex:
+//! line parameters, residuals; byte-plane files of versions 2 and 3) with the order-0 entropy of
+//! their values, in bits per finest vertex:
 //! `cargo run --release -p octowrap-format --example mrq_streams -- FILE.mrq...`.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeMap;
+use std::fmt::Write;
 
 const NAMES: [&str; 12] = [
     "child_masks",
@@ -102,13 +104,13 @@ fn main() {
                 }
                 let z = zstd_bits(bytes) / finest;
                 totals[i] += z;
-                line += &format!(" {name} {n}B z{z:.3}");
+                let _ = write!(line, " {name} {n}B z{z:.3}");
                 if i == 11 {
                     geo = bytes;
                 }
             }
             println!("{line}");
-            if block[0] != 0 && block[2] & 2 != 0 && !geo.is_empty() {
+            if version <= 3 && block[0] != 0 && block[2] & 2 != 0 && !geo.is_empty() {
                 let mut g = 0;
                 let flags = &geo[..nv.div_ceil(8)];
                 g += flags.len();
@@ -146,7 +148,7 @@ fn main() {
         let mut line = String::from("total, streams alone:");
         for (i, name) in NAMES.iter().enumerate() {
             if totals[i] > 0.0 {
-                line += &format!(" {name} {:.3}", totals[i]);
+                let _ = write!(line, " {name} {:.3}", totals[i]);
             }
         }
         println!("{line}");

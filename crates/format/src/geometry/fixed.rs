@@ -89,12 +89,9 @@ impl FixedLine {
         let d = q[a].checked_sub(self.base[a]).filter(|d| d.unsigned_abs() < 1 << 40)?;
         // Near d * 2^F / u; the rounding of `point` moves it by less than one.
         let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
-        for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
-            if j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q {
-                return Some(j);
-            }
-        }
-        None
+        [approx, approx + 1, approx - 1, approx + 2, approx - 2]
+            .into_iter()
+            .find(|&j| j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q)
     }
 
     /// The grid displacement of one parameter step, as binary64 (for line placement).

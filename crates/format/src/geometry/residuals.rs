@@ -243,8 +243,8 @@ fn fast_values(
         let t = target[v];
         let r = [0, 1, 2].map(|a| zigzag(t[a] - pr.point[a]) as u32);
         let rc: u64 = r.iter().map(|&x| gamma_bits(x)).sum();
-        for a in 0..3 {
-            out.residuals[a][v] = r[a];
+        for (all, &x) in out.residuals.iter_mut().zip(&r) {
+            all[v] = x;
         }
         out.cost.1 += rc;
         let on_line =
@@ -255,8 +255,8 @@ fn fast_values(
             out.js.push(j);
             out.cost.0 += gamma_bits(z);
         } else {
-            for a in 0..3 {
-                out.line_residuals[a].push(r[a]);
+            for (others, &x) in out.line_residuals.iter_mut().zip(&r) {
+                others.push(x);
             }
             out.cost.0 += rc;
         }
