@@ -8,18 +8,19 @@
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
+/// Streams of spec §4.2, abbreviated.
 const NAMES: [&str; 12] = [
-    "child_masks",
+    "masks",
     "depths",
     "rotations",
-    "created_keys",
-    "face_sizes",
+    "created",
+    "sizes",
     "corners",
-    "extra_names",
+    "extra",
     "splits",
     "exceptions",
     "choices",
-    "raw_lattice",
+    "raw",
     "geometry",
 ];
 

@@ -34,18 +34,23 @@ pub struct GridStreams<'a> {
     pub planes: [Planes<'a>; 3],
 }
 
+/// With lines, the bitmap of line vertices (spec §6.1; unused bits zero) and the number of line
+/// vertices; without, nothing.
+fn line_flags<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<(&'a [u8], usize), DecodeError> {
+    if !lines {
+        return Ok((&[], 0));
+    }
+    let flags = g.bytes(nv.div_ceil(8))?;
+    if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
+        return Err(g.invalid("unused line flag bits are not zero"));
+    }
+    Ok((flags, flags.iter().map(|b| b.count_ones() as usize).sum()))
+}
+
 /// Reads the layout of a grid level's geometry stream: with lines, the bitmap of line vertices
 /// (unused bits zero) and their parameters, then the residual planes of the others.
 pub fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<GridStreams<'a>, DecodeError> {
-    let mut flags: &[u8] = &[];
-    let mut line_count = 0usize;
-    if lines {
-        flags = g.bytes(nv.div_ceil(8))?;
-        if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
-            return Err(g.invalid("unused line flag bits are not zero"));
-        }
-        line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
-    }
+    let (flags, line_count) = line_flags(g, nv, lines)?;
     let params = if lines { Some(g.plane_view(line_count, 4)?) } else { None };
     let rest = nv - line_count;
     let planes = [g.plane_view(rest, 4)?, g.plane_view(rest, 4)?, g.plane_view(rest, 4)?];
@@ -55,27 +60,17 @@ pub fn grid_streams<'a>(g: &mut Reader<'a>, nv: usize, lines: bool) -> Result<Gr
 /// Writes the layout of a grid level's geometry stream (spec §6.1, §6.6, §6.8): with lines, the
 /// bitmap of line vertices and their parameters, then the other vertices' residuals in coding
 /// order; without, the residuals of every vertex, put back in vertex order (`order` lists the
-/// vertices in coding order). `coded` (mode 3 of version 4, spec §6.9): each value sequence is a
-/// value block instead of a plane block.
+/// vertices in coding order).
 pub fn put_grid_streams(
     g: &mut Vec<u8>,
     lines: Option<(&[u8], &[u64])>,
     mut res: [Vec<u64>; 3],
     order: &[u32],
     nv: usize,
-    coded: bool,
 ) {
-    let put = |g: &mut Vec<u8>, values: &[u64]| {
-        if coded {
-            // Zigzagged values of at most four planes (§6.1): below 2^32.
-            put_values(g, &values.iter().map(|&v| v as u32).collect::<Vec<_>>());
-        } else {
-            put_planes(g, values);
-        }
-    };
     if let Some((flags, params)) = lines {
         g.extend(flags);
-        put(g, params);
+        put_planes(g, params);
     } else {
         for r in &mut res {
             let mut by_vertex = vec![0u64; nv];
@@ -86,7 +81,7 @@ pub fn put_grid_streams(
         }
     }
     for r in &res {
-        put(g, r);
+        put_planes(g, r);
     }
 }
 
@@ -100,15 +95,7 @@ pub fn grid_values<'a>(
     lines: bool,
     values: &mut [Vec<u32>; 4],
 ) -> Result<&'a [u8], DecodeError> {
-    let mut flags: &[u8] = &[];
-    let mut line_count = 0usize;
-    if lines {
-        flags = g.bytes(nv.div_ceil(8))?;
-        if nv % 8 != 0 && flags[nv / 8] >> (nv % 8) != 0 {
-            return Err(g.invalid("unused line flag bits are not zero"));
-        }
-        line_count = flags.iter().map(|b| b.count_ones() as usize).sum();
-    }
+    let (flags, line_count) = line_flags(g, nv, lines)?;
     let [params, x, y, z] = values;
     if lines {
         read_values(g, line_count, params)?;
@@ -181,6 +168,28 @@ pub fn choose_geometry(
     (predictor, line_shift, quads)
 }
 
+/// The mode 3 prediction inputs (spec §6.8) of a canonical level.
+fn level_topo<'a>(
+    level: &'a PlainLevel,
+    contexts: &'a fast::Contexts,
+    quads: &'a [([u32; 4], u8)],
+    (k, bits): (u32, u32),
+    (predictor, line_shift, lines): (u8, u32, bool),
+) -> fast::FastTopo<'a> {
+    fast::FastTopo {
+        level: k,
+        bits,
+        indices: &level.indices,
+        slots: level.slots.as_deref().unwrap_or_default(),
+        vertex_corners: level.corners.as_deref().unwrap_or_default(),
+        contexts,
+        parent_quads: quads,
+        lines,
+        line_shift,
+        predictor,
+    }
+}
+
 /// The values of a mode 3 level's geometry under one lattice predictor and line spacing (spec
 /// §6.8), for both layouts of §6.1 (their predictions are the same): per vertex in coding order
 /// its line parameter when it lies on its line, and its residuals always.
@@ -217,18 +226,7 @@ fn fast_values(
     (predictor, line_shift): (u8, u32),
 ) -> FastValues {
     let nv = level.q.len();
-    let topo = fast::FastTopo {
-        level: k,
-        bits,
-        indices: &level.indices,
-        slots: level.slots.as_deref().unwrap_or_default(),
-        vertex_corners: level.corners.as_deref().unwrap_or_default(),
-        contexts,
-        parent_quads: quads,
-        lines: true,
-        line_shift,
-        predictor,
-    };
+    let topo = level_topo(level, contexts, quads, (k, bits), (predictor, line_shift, true));
     let target = &level.q;
     let mut out = FastValues {
         flags: vec![0u8; nv.div_ceil(8)],
@@ -329,7 +327,7 @@ pub fn geometry(
 ) -> (Vec<u8>, Vec<i64>) {
     let mut g = Vec::new();
     if mode == Mode::FastLattice && !exact {
-        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift), false);
+        return fast_geometry(level, k, bits, parent.expect("refinement"), pos, quads, (predictor, line_shift));
     }
     if exact {
         for a in 0..3 {
@@ -380,13 +378,11 @@ pub fn geometry(
         order.push(v as u32);
         Ok((t, None))
     });
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv, false);
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
     (g, js)
 }
 
-/// The geometry stream of a mode 3 level (spec §6.8) of a grid file; `coded`: with the value
-/// blocks of version 4 (§6.9).
-#[allow(clippy::too_many_arguments)]
+/// The geometry stream of a mode 3 level (spec §6.8) of a grid file of version 3.
 fn fast_geometry(
     level: &PlainLevel,
     k: u32,
@@ -395,24 +391,12 @@ fn fast_geometry(
     pos: &[u8],
     quads: &[([u32; 4], u8)],
     (predictor, line_shift): (u8, u32),
-    coded: bool,
 ) -> (Vec<u8>, Vec<i64>) {
     let nv = level.q.len();
     let lines = predictor & PREDICTOR_LINES != 0;
     let mut contexts = fast::Contexts::default();
     fast::contexts(&level.indices, &level.parents, &level.quadrants, pos, quads, nv, &mut contexts);
-    let topo = fast::FastTopo {
-        level: k,
-        bits,
-        indices: &level.indices,
-        slots: level.slots.as_deref().unwrap_or_default(),
-        vertex_corners: level.corners.as_deref().unwrap_or_default(),
-        contexts: &contexts,
-        parent_quads: quads,
-        lines,
-        line_shift,
-        predictor: predictor & 1,
-    };
+    let topo = level_topo(level, &contexts, quads, (k, bits), (predictor & 1, line_shift, lines));
     let target = &level.q;
     let mut res = [Vec::with_capacity(nv), Vec::with_capacity(nv), Vec::with_capacity(nv)];
     let mut params = Vec::new();
@@ -435,7 +419,7 @@ fn fast_geometry(
         Ok(t)
     });
     let mut g = Vec::new();
-    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv, coded);
+    put_grid_streams(&mut g, lines.then_some((&flags[..], &params[..])), res, &order, nv);
     (g, js)
 }
 
