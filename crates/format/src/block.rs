@@ -138,6 +138,9 @@ pub struct BlockHeader {
     pub counts: [usize; 3],
     /// `stream_size`, in the order of §4.2.
     pub sizes: [usize; STREAM_COUNT],
+    /// The geometry stream holds value blocks (§6.9: mode 3 of a version 4 grid file), which
+    /// may take less than a byte per vertex.
+    pub value_blocks: bool,
 }
 
 impl BlockHeader {
@@ -199,6 +202,7 @@ impl BlockHeader {
             line_shift,
             counts: [nv as usize, nf as usize, nc as usize],
             sizes,
+            value_blocks: mode == Mode::FastLattice && !grid.exact && grid.version >= 4,
         };
         header.justify_counts().map_err(|(at, reason)| bad(at, reason))?;
         Ok(header)
@@ -258,7 +262,9 @@ impl BlockHeader {
             }
         }
         let nv = self.counts[0] as u64;
-        if let Some(max) = geometry_vertex_bound(streams[s::GEOMETRY].rest(), self.lines) {
+        let bound =
+            if self.value_blocks { None } else { geometry_vertex_bound(streams[s::GEOMETRY].rest(), self.lines) };
+        if let Some(max) = bound {
             if nv > max {
                 return Err(DecodeError::Invalid {
                     place,

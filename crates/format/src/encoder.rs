@@ -104,12 +104,12 @@ fn check_version(opts: &EncodeOptions) -> Result<(), EncodeError> {
 
 /// Encodes `h` into a byte vector. See [`encode_to`].
 pub fn encode(h: &Hierarchy, opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
-    Ok(encode_inner(h, opts)?.0)
+    Ok(encode_inner(h, opts, false)?.0)
 }
 
 /// Encodes `h` and reports per-level sizes (for benchmarks).
 pub fn encode_with_stats(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
-    encode_inner(h, opts)
+    encode_inner(h, opts, true)
 }
 
 /// Encodes `h` to any writer. The hierarchy's links are checked first; positions must be finite.
@@ -213,14 +213,22 @@ pub fn level_input<'a>(
     })
 }
 
-fn encode_inner(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+/// `with_stats`: also compress each level's topology and geometry apart, for the per-level sizes
+/// (two more zstd runs per level; [`encode`] skips them).
+fn encode_inner(
+    h: &Hierarchy,
+    opts: &EncodeOptions,
+    with_stats: bool,
+) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
     let mut blocks = Vec::with_capacity(h.levels.len());
     let mut stats = Vec::with_capacity(h.levels.len());
     let grid = encode_levels(h, opts, |enc| {
         let stored = zstd::bulk::compress(&enc.payload, opts.zstd_level)?;
         let geo_start = enc.payload.len() - enc.split_bytes.1;
-        let topology = zstd::bulk::compress(&enc.payload[..geo_start], opts.zstd_level)?.len();
-        let geometry = zstd::bulk::compress(&enc.payload[geo_start..], opts.zstd_level)?.len();
+        let size = |bytes: &[u8]| -> Result<usize, EncodeError> {
+            Ok(if with_stats { zstd::bulk::compress(bytes, opts.zstd_level)?.len() } else { 0 })
+        };
+        let (topology, geometry) = (size(&enc.payload[..geo_start])?, size(&enc.payload[geo_start..])?);
         stats.push(LevelStats {
             mode: enc.payload[0],
             predictor: enc.predictor,

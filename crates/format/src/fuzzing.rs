@@ -48,3 +48,16 @@ pub fn reseal(bytes: &[u8], payloads: &[Vec<u8>], counts: Option<&[(u32, u32, u3
     }
     Some(out)
 }
+
+/// Range decodes `data` as the coded bytes of a value block of `count` values (spec §6.9);
+/// `None` when they are invalid. Never panics, whatever the bytes.
+pub fn range_decode(data: &[u8], count: usize) -> Option<Vec<u32>> {
+    let mut out = Vec::new();
+    crate::entropy::values::range_decode(data, count, &mut out).ok()?;
+    Some(out)
+}
+
+/// Range codes `values` as a value block's coded bytes (spec §6.9).
+pub fn range_code(values: &[u32]) -> Vec<u8> {
+    crate::entropy::values::range_code(values)
+}

@@ -9,7 +9,7 @@ use crate::container::LevelEntry;
 use crate::error::{DecodeError, Where};
 use crate::geometry::fixed as fast;
 use crate::geometry::predict::{GRID_LIMIT, GeometryScratch, Topo, geometry_pass};
-use crate::geometry::residuals::{GridStreams, exact_positions, grid_streams};
+use crate::geometry::residuals::{GridStreams, exact_positions, grid_streams, grid_values};
 use crate::topology::lattice::LatticeFaces;
 use crate::topology::names::NameScratch;
 use crate::topology::{NO_POS, Parent, slots};
@@ -294,18 +294,25 @@ fn finish_fast(
     if grid.exact {
         out.exact = exact_positions(g, nv)?;
     } else {
-        let GridStreams { flags, params, planes } = grid_streams(g, nv, lines)?;
         let FastGeometryScratch { contexts, dirs, values } = scratch;
         // (`contexts` were found by `fast::resolve`.)
-        // The stream's values, assembled from their byte planes once (in bulk, not per vertex).
+        // The stream's values, decoded once (in bulk, not per vertex): value blocks (§6.9) from
+        // version 4, byte planes before.
+        let flags = if grid.version >= 4 {
+            grid_values(g, nv, lines, values)?
+        } else {
+            let GridStreams { flags, params, planes } = grid_streams(g, nv, lines)?;
+            let [jv, rx, ry, rz] = &mut *values;
+            match &params {
+                Some(p) => p.decode_into(jv),
+                None => jv.clear(),
+            }
+            planes[0].decode_into(rx);
+            planes[1].decode_into(ry);
+            planes[2].decode_into(rz);
+            flags
+        };
         let [jv, rx, ry, rz] = values;
-        match &params {
-            Some(p) => p.decode_into(jv),
-            None => jv.clear(),
-        }
-        planes[0].decode_into(rx);
-        planes[1].decode_into(ry);
-        planes[2].decode_into(rz);
         let topo = fast::FastTopo {
             level: k,
             bits: grid.bits,

@@ -118,7 +118,7 @@ pub fn encode_level(
     level.exact =
         if input.exact.is_empty() { Vec::new() } else { vorder.iter().map(|&v| input.exact[v as usize]).collect() };
     let (predictor, line_shift, quads) =
-        choose_geometry(k, mode, (bits, exact), &level, parent, &plan.pos, input.topology_only, &mut st);
+        choose_geometry(k, (mode, version), (bits, exact), &level, parent, &plan.pos, input.topology_only, &mut st);
     let mut e = finish(st, (mode, predictor, line_shift), has_lattice, level, face_new, vorder);
     e.pos = plan.pos;
     e.parent_quads = quads;

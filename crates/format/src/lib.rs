@@ -85,6 +85,7 @@ mod bytes;
 mod container;
 mod decoder;
 mod encoder;
+mod entropy;
 mod error;
 #[cfg(feature = "testing")]
 pub mod fuzzing;
@@ -114,7 +115,7 @@ pub use placement::{LinePlacement, place_on_prediction_lines};
 
 /// The newest format version (spec §3.1): the version this crate writes by default
 /// ([`EncodeOptions::version`] selects 2 instead). The decoder reads every version from 1 to this.
-pub const FORMAT_VERSION: u16 = 3;
+pub const FORMAT_VERSION: u16 = 4;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 

@@ -107,6 +107,12 @@ fn valid_set() -> Vec<(&'static str, Vec<u8>)> {
         // every vertex below level 0 pressed onto the cube's face x = 1 (grid x = 2^28).
         ("clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &q(28)).unwrap()),
         ("v3_clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &v3(q(28))).unwrap()),
+        // Format version 4 (spec §6.9): mode 3 geometry in value blocks, range coded or byte planes.
+        ("v4_cube3_lattice_q12", encode(&cube_hierarchy(4, Edits::default(), 3), &v4(q(12))).unwrap()),
+        (
+            "v4_cube3_lattice_lines_q12",
+            encode(&placed_with(cube_hierarchy(4, Edits::default(), 3), &v4(q(12))), &v4(q(12))).unwrap(),
+        ),
     ]
 }
 
@@ -190,6 +196,12 @@ fn pressed(mut h: Hierarchy) -> Hierarchy {
     h
 }
 
+/// `opts` writing format version 4.
+fn v4(mut opts: EncodeOptions) -> EncodeOptions {
+    opts.version = 4;
+    opts
+}
+
 /// `opts` writing format version 3.
 fn v3(mut opts: EncodeOptions) -> EncodeOptions {
     opts.version = 3;
@@ -236,8 +248,8 @@ fn invalid_set() -> Vec<Invalid> {
     b[1] = b'X';
     out.push(("bad_magic.mrq", "§3.1", "not-mrq", "the second magic byte is `X`", b));
     let mut b = base.clone();
-    b[8] = 4;
-    out.push(("version_4.mrq", "§3.1", "unsupported-version", "version 4", b));
+    b[8] = 5;
+    out.push(("version_5.mrq", "§3.1", "unsupported-version", "version 5", b));
     out.push(("truncated_header.mrq", "§3.1", "truncated", "the file ends inside the header", base[..60].to_vec()));
     let l1 = level1(&base);
     let cut = (l1.offset + l1.stored_size / 2) as usize;

@@ -21,6 +21,8 @@ mod geometry3;
 mod primitives;
 #[path = "spec_decoder/topology.rs"]
 mod topology;
+#[path = "spec_decoder/values.rs"]
+mod values;
 
 use std::path::Path;
 
@@ -70,7 +72,7 @@ fn class(e: &Error) -> &'static str {
 fn encoder_outputs_decode_alike() {
     let mut n = 0;
     for seed in 1..=12u64 {
-        for version in [2u16, 3] {
+        for version in [2u16, 3, 4] {
             for q in [Quantization::Bits(10), Quantization::Bits(24), Quantization::Exact] {
                 let opts = options(version, q);
                 let bytes = encode(&hierarchy(seed, &opts), &opts).expect("encode");
@@ -85,7 +87,7 @@ fn encoder_outputs_decode_alike() {
         let ours = file::decode(&bytes).expect("a polygon soup");
         compare::compare_with_reference(Path::new("soup"), &bytes, &ours);
     }
-    assert_eq!(n, 72);
+    assert_eq!(n, 108);
 }
 
 #[test]
@@ -93,7 +95,7 @@ fn mutants_are_accepted_and_rejected_alike() {
     let mut rng = Rng::new(17);
     let (mut accepted, mut rejected) = (0, 0);
     for seed in 1..=8u64 {
-        for version in [2u16, 3] {
+        for version in [2u16, 3, 4] {
             let q = if seed % 3 == 0 { Quantization::Exact } else { Quantization::Bits(12) };
             let opts = options(version, q);
             let bytes = encode(&hierarchy(seed, &opts), &opts).expect("encode");

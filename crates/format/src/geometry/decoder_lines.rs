@@ -297,7 +297,7 @@ mod tests {
     use crate::block::{Mode, PREDICTOR_LINES};
     use crate::bytes::{Reader, unzigzag};
     use crate::encoder::encode_levels;
-    use crate::geometry::residuals::grid_streams;
+    use crate::geometry::residuals::grid_values;
     use crate::synthetic::{Edits, cube_hierarchy};
     use crate::{DecodeOptions, EncodeOptions, Where, decode_bytes, encode, place_on_prediction_lines};
 
@@ -332,16 +332,17 @@ mod tests {
                 let origin = if predictor & 1 == 0 { LineOrigin::LatticePoint } else { LineOrigin::Bilinear };
                 let lines = levels.lines_for_child_level(level, origin, *shift).unwrap();
                 let mut r = Reader::new(&payload[payload.len() - geometry..], 0, Where::Payload(k as u32), "geometry");
-                let streams = grid_streams(&mut r, nv, true).unwrap();
-                let params = streams.params.expect("line parameters");
+                let mut values = Default::default();
+                let flags = grid_values(&mut r, nv, true, &mut values).unwrap();
+                let params = &values[0];
                 // Coding order: the vertices with a context first, by index.
                 let mut i = 0;
                 for (v, line) in lines.iter().enumerate() {
                     let Some(line) = line else { continue };
-                    if streams.flags[v / 8] >> (v % 8) & 1 == 0 {
+                    if flags[v / 8] >> (v % 8) & 1 == 0 {
                         continue;
                     }
-                    let j = line.predicted + unzigzag(params.get(i));
+                    let j = line.predicted + unzigzag(u64::from(params[i]));
                     i += 1;
                     assert_eq!(
                         grid.position(line.line.point(j)),

@@ -80,20 +80,18 @@ impl FixedLine {
     /// The parameter of grid point `q` when `q` lies on the line (`|j| <= 2^30`).
     pub fn param(&self, q: [i64; 3]) -> Option<i64> {
         let a = self.main_axis();
-        let d = i128::from(q[a].checked_sub(self.base[a])?);
-        let u = i128::from(self.u[a]);
+        let u = self.u[a];
         if u == 0 {
             return None;
         }
+        // Grid coordinates and bases lie within 2^40 (far wider than the grid range), so
+        // `d * 2^F` fits in an i64.
+        let d = q[a].checked_sub(self.base[a]).filter(|d| d.unsigned_abs() < 1 << 40)?;
         // Near d * 2^F / u; the rounding of `point` moves it by less than one.
         let approx = (d << DIRECTION_FRACTION_BITS).div_euclid(u);
-        for j in [approx, approx + 1, approx - 1, approx + 2, approx - 2] {
-            let Ok(j) = i64::try_from(j) else { continue };
-            if j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q {
-                return Some(j);
-            }
-        }
-        None
+        [approx, approx + 1, approx - 1, approx + 2, approx - 2]
+            .into_iter()
+            .find(|&j| j.abs() <= crate::block::LINE_PARAM_LIMIT && self.point(j) == q)
     }
 
     /// The grid displacement of one parameter step, as binary64 (for line placement).
@@ -283,6 +281,24 @@ fn pass_a(s: [i64; 3], fl: &FaceLine, corner: [u32; 3], t: &FastTopo<'_>) -> ([i
     (l, jp.clamp(-crate::block::LINE_PARAM_LIMIT, crate::block::LINE_PARAM_LIMIT))
 }
 
+/// The pass A prediction of vertex `v` (spec §6.8): its line's origin, predicted parameter and
+/// direction (its parent face's), or `None` when `v` has no context. Shared by the decoder's loop
+/// and [`fast_pass`].
+#[allow(clippy::inline_always)] // once per vertex in the hot loops
+#[inline(always)]
+fn pass_a_vertex(t: &FastTopo<'_>, pq: &[[i64; 3]], dirs: &[FaceLine], v: usize) -> Option<([i64; 3], i64, [i64; 3])> {
+    let pf = t.contexts.face[v];
+    if pf == NONE {
+        return None;
+    }
+    let quad = t.parent_quads[pf as usize].0;
+    let fl = &dirs[pf as usize];
+    let g = [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]];
+    let s = stencil_sum(&g, t.contexts.stencil[v]);
+    let (origin, jp) = pass_a(s, fl, t.vertex_corners[v], t);
+    Some((origin, jp, fl.u))
+}
+
 /// The predicted point of a pass A vertex (spec §6.8): `clamp(line(jpred))` (the origin itself
 /// under predictor 1, where `jpred = 0`).
 #[allow(clippy::inline_always)] // once per vertex in the hot loops
@@ -369,18 +385,11 @@ pub fn decode_pass(
     let (mut il, mut io) = (0usize, 0usize);
     let mut bad = false;
     for v in 0..nv {
-        let pf = ctx.face[v];
-        if pf == NONE {
+        let Some((b, jp, u)) = pass_a_vertex(t, pq, dirs, v) else {
             missing = true;
             continue;
-        }
-        let quad = t.parent_quads[pf as usize].0;
-        let fl = &dirs[pf as usize];
-        let g = [pq[quad[0] as usize], pq[quad[1] as usize], pq[quad[2] as usize], pq[quad[3] as usize]];
-        let s = stencil_sum(&g, ctx.stencil[v]);
-        let (b, jp) = pass_a(s, fl, t.vertex_corners[v], t);
+        };
         let p = if lines && flags[v / 8] >> (v % 8) & 1 == 1 {
-            let u = fl.u;
             let j = jp + unz(params[il]);
             il += 1;
             bad |= j.abs() > limit;
@@ -392,7 +401,7 @@ pub fn decode_pass(
         } else {
             let i = if lines { io } else { v };
             io += 1;
-            let point = pass_a_point(b, jp, fl.u);
+            let point = pass_a_point(b, jp, u);
             [point[0] + unz(res[0][i]), point[1] + unz(res[1][i]), point[2] + unz(res[2][i])]
         };
         bad |= p[0].abs() > GRID_LIMIT || p[1].abs() > GRID_LIMIT || p[2].abs() > GRID_LIMIT;
@@ -446,17 +455,12 @@ pub fn fast_pass<E>(
     parent_directions(t.parent_quads, pq, t.line_shift, dirs);
     let mut missing = false;
     for v in 0..nv {
-        let pf = ctx.face[v];
-        if pf == NONE {
+        let Some((base, param, u)) = pass_a_vertex(t, pq, dirs, v) else {
             missing = true;
             continue;
-        }
-        let quad = t.parent_quads[pf as usize].0;
-        let fl = &dirs[pf as usize];
-        let s = stencil_sum(&quad.map(|i| pq[i as usize]), ctx.stencil[v]);
-        let (base, param) = pass_a(s, fl, t.vertex_corners[v], t);
-        let point = pass_a_point(base, param, fl.u);
-        let line = if t.lines { Some(FixedLine { base, u: fl.u }) } else { None };
+        };
+        let point = pass_a_point(base, param, u);
+        let line = if t.lines { Some(FixedLine { base, u }) } else { None };
         q[v] = step(v, &FastPrediction { point, line, param })?;
     }
     if !missing {

@@ -109,7 +109,7 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
         cube_max: f64x3_at(h, 80),
         metadata_size: u32_at(h, 104),
     };
-    if !(1..=3).contains(&header.version) {
+    if !(1..=4).contains(&header.version) {
         return fail(Class::UnsupportedVersion, format!("version {}", header.version));
     }
     require(u16_at(h, 10) == 112, || "header_size is not 112".into())?;

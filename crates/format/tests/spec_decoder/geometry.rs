@@ -8,6 +8,7 @@ use super::primitives::{
     unzigzag, wide,
 };
 use super::topology::{Level, Topology, axes, canonical_corners, corner_list};
+use super::values;
 
 /// A vertex's line (§6.6 for modes 1 and 2, §6.8 for mode 3): its point of parameter `j`.
 pub enum Line {
@@ -50,7 +51,8 @@ pub struct Values {
 }
 
 impl Values {
-    fn read(g: &mut Stream<'_>, nv: usize, lines: bool) -> Result<Self> {
+    /// `coded`: mode 3 of a version 4 file, whose value sequences are value blocks (§6.9).
+    fn read(g: &mut Stream<'_>, nv: usize, lines: bool, coded: bool) -> Result<Self> {
         let mut flags = Vec::new();
         let mut n_lines = 0;
         if lines {
@@ -58,9 +60,9 @@ impl Values {
             require(nv % 8 == 0 || flags[nv / 8] >> (nv % 8) == 0, || "unused line flag bits".into())?;
             n_lines = (0..nv).filter(|&v| flags[v / 8] >> (v % 8) & 1 == 1).count();
         }
-        let params = if lines { g.plane_block(n_lines, 4)? } else { Vec::new() };
-        let residuals =
-            [g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?, g.plane_block(nv - n_lines, 4)?];
+        let mut block = |n: usize| if coded { values::read(g, n) } else { g.plane_block(n, 4) };
+        let params = if lines { block(n_lines)? } else { Vec::new() };
+        let residuals = [block(nv - n_lines)?, block(nv - n_lines)?, block(nv - n_lines)?];
         Ok(Self { lines, flags, params, residuals, next_param: 0, next_residual: 0 })
     }
 
@@ -112,7 +114,7 @@ pub fn decode(
         require(level.exact.iter().flatten().all(|x| x.is_finite()), || "a coordinate is not finite".into())?;
         return Ok(level);
     }
-    let mut values = Values::read(g, nv, h.lines)?;
+    let mut values = Values::read(g, nv, h.lines, h.mode == 3 && file.version >= 4)?;
     let q = if h.mode == 3 {
         geometry3::decode(k, h, file, &topo, parent.expect("mode 3 has a parent"), &mut values)?
     } else {

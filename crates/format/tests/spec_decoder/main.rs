@@ -16,6 +16,7 @@ mod geometry;
 mod geometry3;
 mod primitives;
 mod topology;
+mod values;
 
 use std::path::{Path, PathBuf};
 
