@@ -85,14 +85,7 @@ pub fn report() {
         let clean = r.ooms + r.timeouts + r.crashes == 0 && found == 0;
         headline(
             format!("fuzz `{target}`: executions; crashes / ooms / timeouts"),
-            format!(
-                "{:.2} M in {} s; {} / {} / {}",
-                r.executions as f64 / 1e6,
-                r.seconds,
-                r.crashes,
-                r.ooms,
-                r.timeouts
-            ),
+            format!("{} in {} s; {} / {} / {}", r.executions, r.seconds, r.crashes, r.ooms, r.timeouts),
             "≥ 10 M; 0 / 0 / 0",
             Some(clean && r.executions >= GOAL_EXECUTIONS),
         );

@@ -108,7 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let container = octowrap_export::Container::from_path(&octowrap_fsutil::without_gz(&args.output));
     let Some(container) = container else {
         bail!(
-            "cannot tell the glTF form of '{}': the output must end in .glb, .glb.gz or .gltf",
+            "cannot tell the glTF form of '{}': the output must end in .glb or .gltf (or .glb.gz, compressed)",
             args.output.display()
         );
     };
