@@ -41,4 +41,5 @@ pub enum Command {
     Validate(cmd::validate::Args),
     Decimate(cmd::decimate::Args),
     Export(cmd::export::Args),
+    Tile(cmd::tile::Args),
 }

@@ -8,6 +8,7 @@ pub mod info;
 pub mod input;
 pub mod mrq;
 pub mod reconstruct;
+pub mod tile;
 pub mod validate;
 
 use std::process::ExitCode;
@@ -24,5 +25,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(a) => validate::run(&a),
         Command::Decimate(a) => decimate::run(&a),
         Command::Export(a) => export::run(&a),
+        Command::Tile(a) => tile::run(&a),
     }
 }
