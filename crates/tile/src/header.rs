@@ -54,7 +54,11 @@ fn parse(path: &Path, d: &[u8]) -> Result<Option<LasHeader>, Error> {
     let legacy = u64::from(u32::from_le_bytes(d[LEGACY_COUNT..LEGACY_COUNT + 4].try_into().expect("4 bytes")));
     let points = if version >= (1, 4) {
         if d.len() < LONG_HEADER || size < LONG_HEADER {
-            return Err(Error::invalid(path, HEADER_SIZE as u64, format!("LAS 1.4 header of {size} bytes, 375 needed")));
+            return Err(Error::invalid(
+                path,
+                HEADER_SIZE as u64,
+                format!("LAS 1.4 header of {size} bytes, 375 needed"),
+            ));
         }
         u64::from_le_bytes(d[COUNT_14..COUNT_14 + 8].try_into().expect("8 bytes"))
     } else {
@@ -64,7 +68,11 @@ fn parse(path: &Path, d: &[u8]) -> Result<Option<LasHeader>, Error> {
     let v: Vec<f64> = (0..6).map(|i| f64_at(d, MAX_X + 8 * i)).collect();
     let bounds = Aabb { min: DVec3::new(v[1], v[3], v[5]), max: DVec3::new(v[0], v[2], v[4]) };
     if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.min.cmpgt(bounds.max).any() {
-        return Err(Error::invalid(path, MAX_X as u64, format!("LAS header bounds {:?} .. {:?}", bounds.min, bounds.max)));
+        return Err(Error::invalid(
+            path,
+            MAX_X as u64,
+            format!("LAS header bounds {:?} .. {:?}", bounds.min, bounds.max),
+        ));
     }
     Ok(Some(LasHeader { version, points, bounds }))
 }
@@ -111,15 +119,7 @@ mod tests {
 
     #[test]
     fn real_laz_header_matches_its_points() {
-        let Some(dir) = std::env::var_os("OCTOWRAP_DATA") else {
-            println!("SKIPPED: OCTOWRAP_DATA not set");
-            return;
-        };
-        let path = Path::new(&dir).join("lidar-las/autzen_trim.laz");
-        if !path.exists() {
-            println!("SKIPPED: {} missing", path.display());
-            return;
-        }
+        let Some(path) = octowrap_testdata::file("lidar-las/autzen_trim.laz") else { return };
         let h = read_las_header(&path).unwrap().unwrap();
         let mesh = octowrap_io::read_path(&path, &octowrap_io::ReadOptions::default()).unwrap();
         assert_eq!(h.points, mesh.vertices.len() as u64);

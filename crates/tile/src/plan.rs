@@ -158,20 +158,27 @@ impl Plan {
     /// The world box of a tile's cell.
     pub fn cell_box(&self, t: &Tile) -> Aabb {
         let e = self.cube_edge / f64::from(1u32 << t.depth);
-        let min = DVec3::from(self.cube_min) + DVec3::new(f64::from(t.cell[0]), f64::from(t.cell[1]), f64::from(t.cell[2])) * e;
+        let min = DVec3::from(self.cube_min)
+            + DVec3::new(f64::from(t.cell[0]), f64::from(t.cell[1]), f64::from(t.cell[2])) * e;
         Aabb { min, max: min + DVec3::splat(e) }
     }
 
     /// The tile with this id.
     pub fn tile(&self, id: u32) -> Result<&Tile, Error> {
-        self.tiles.get(id as usize).ok_or_else(|| Error::Plan(format!("no tile {id}: the plan has tiles 0 to {}", self.tiles.len().saturating_sub(1))))
+        self.tiles.get(id as usize).ok_or_else(|| {
+            Error::Plan(format!("no tile {id}: the plan has tiles 0 to {}", self.tiles.len().saturating_sub(1)))
+        })
     }
 
     /// Reads and checks a plan file.
     pub fn load(path: &Path) -> Result<Self, Error> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
         let plan: Self = serde_json::from_slice(&bytes).map_err(|e| {
-            Error::invalid(path, e.line() as u64, format!("not a plan file: {e} (line {}, column {})", e.line(), e.column()))
+            Error::invalid(
+                path,
+                e.line() as u64,
+                format!("not a plan file: {e} (line {}, column {})", e.line(), e.column()),
+            )
         })?;
         plan.check().map_err(|m| Error::invalid(path, 0, m))?;
         Ok(plan)
@@ -206,7 +213,11 @@ impl Plan {
 
     /// The tiles as a lookup from (depth, Morton code of the cell) to the tile's index.
     pub(crate) fn cell_index(&self) -> HashMap<(u32, u64), usize> {
-        self.tiles.iter().enumerate().map(|(i, t)| ((t.depth, morton::encode(t.cell[0], t.cell[1], t.cell[2])), i)).collect()
+        self.tiles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| ((t.depth, morton::encode(t.cell[0], t.cell[1], t.cell[2])), i))
+            .collect()
     }
 }
 
@@ -226,12 +237,11 @@ pub fn build(inputs: &[PathBuf], opts: &PlanOptions) -> Result<Plan, Error> {
     let mut listed = Vec::with_capacity(inputs.len());
     let mut bounds = Aabb::EMPTY;
     for path in inputs {
-        let (points, b, from_header) = match header::read_las_header(path)? {
-            Some(h) => (h.points, h.bounds, true),
-            None => {
-                let mesh = octowrap_io::read_path(path, &read_opts)?;
-                (mesh.vertices.len() as u64, mesh.vertices.bounds(), false)
-            }
+        let (points, b, from_header) = if let Some(h) = header::read_las_header(path)? {
+            (h.points, h.bounds, true)
+        } else {
+            let mesh = octowrap_io::read_path(path, &read_opts)?;
+            (mesh.vertices.len() as u64, mesh.vertices.bounds(), false)
         };
         bounds = bounds.union(&b);
         listed.push(Input { path: path.clone(), points, bounds_from_header: from_header });
@@ -310,7 +320,15 @@ fn count(hist: &BTreeMap<u64, u64>, depth: u32, d: u32, code: u64) -> u64 {
 }
 
 /// Adds the cell `code` of depth `d`, or its non-empty children while it is over the budget.
-fn split_cells(hist: &BTreeMap<u64, u64>, depth: u32, d: u32, code: u64, max: u32, budget: u64, out: &mut Vec<(u32, u64, u64)>) {
+fn split_cells(
+    hist: &BTreeMap<u64, u64>,
+    depth: u32,
+    d: u32,
+    code: u64,
+    max: u32,
+    budget: u64,
+    out: &mut Vec<(u32, u64, u64)>,
+) {
     let n = count(hist, depth, d, code);
     if n == 0 {
         return;

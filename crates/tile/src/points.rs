@@ -75,7 +75,8 @@ pub fn read(path: &Path) -> Result<Vec<DVec3>, Error> {
         return Err(Error::invalid(path, len - 8, "checksum mismatch"));
     }
     let f64_at = |i: usize| f64::from_le_bytes(body[i..i + 8].try_into().expect("8 bytes"));
-    let points: Vec<DVec3> = (0..count as usize).map(|i| DVec3::new(f64_at(24 * i), f64_at(24 * i + 8), f64_at(24 * i + 16))).collect();
+    let points: Vec<DVec3> =
+        (0..count as usize).map(|i| DVec3::new(f64_at(24 * i), f64_at(24 * i + 8), f64_at(24 * i + 16))).collect();
     if let Some(i) = points.iter().position(|p| !p.is_finite()) {
         return Err(Error::invalid(path, 16 + 24 * i as u64, "point is not finite"));
     }

@@ -65,7 +65,12 @@ pub fn bin(plan: &Plan, points: &[DVec3]) -> Vec<Vec<DVec3>> {
 /// Splits input `input` of the plan: reads it and writes one part per tile into `dir` (empty
 /// parts too, so that a tile's merge can tell a missing part from an empty one). Returns the
 /// points written per tile.
-pub fn split_input(plan: &Plan, input: usize, dir: &Path, opts: &octowrap_fsutil::WriteOptions) -> Result<Vec<usize>, Error> {
+pub fn split_input(
+    plan: &Plan,
+    input: usize,
+    dir: &Path,
+    opts: &octowrap_fsutil::WriteOptions,
+) -> Result<Vec<usize>, Error> {
     let Some(inp) = plan.inputs.get(input) else {
         return Err(Error::Plan(format!("no input {input}: the plan has {}", plan.inputs.len())));
     };

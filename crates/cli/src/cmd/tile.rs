@@ -149,7 +149,8 @@ fn split(a: &SplitArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let input = a.input.as_ref().context("an input to split")?;
-    let Some(i) = plan.inputs.iter().position(|p| p.path == *input || octowrap_fsutil::same_file(&p.path, input)) else {
+    let Some(i) = plan.inputs.iter().position(|p| p.path == *input || octowrap_fsutil::same_file(&p.path, input))
+    else {
         bail!("{} is not one of the plan's inputs", input.display());
     };
     let counts = split::split_input(&plan, i, &a.output, &opts)?;
@@ -195,7 +196,12 @@ fn merge(a: &MergeArgs) -> anyhow::Result<ExitCode> {
 /// output) reconstructed on the plan's lattice, the finest level cut to the faces the tile owns.
 /// Vertices keep their reconstructed positions (no line placement: it depends on the tile's
 /// coarse levels, which differ between tiles, and would move border vertices apart).
-pub fn reconstruct(input: &Path, plan: &Path, tile: u32, opts: &ReconOptions) -> anyhow::Result<octowrap_mesh::Hierarchy> {
+pub fn reconstruct(
+    input: &Path,
+    plan: &Path,
+    tile: u32,
+    opts: &ReconOptions,
+) -> anyhow::Result<octowrap_mesh::Hierarchy> {
     let plan = Plan::load(plan)?;
     let points = octowrap_tile::points::read(input)?;
     Ok(own::reconstruct_tile(&plan, tile, &points, opts)?)
