@@ -60,7 +60,7 @@
 //! middle height). Merged level 7 against the untiled run (`octowrap validate`): 11,634 faces in
 //! both, no face on another tile's slot; 443 border vertices welded, 174 left apart because the
 //! two tiles computed different positions; 2,224 boundary edges against 1,874 (the 350 more lie
-//! along seams), 9 non-manifold vertices where an unwelded pair meets a welded one, and the
+//! along seams), 9 non-manifold vertices, and the
 //! untiled run's manifold, oriented surface otherwise. On a sampled sphere cut into octants (the
 //! `seams` test) the merged slots equal the untiled run's exactly. So the topology of the finest
 //! level is local within the halo; the positions are not, and these reconstruction changes
