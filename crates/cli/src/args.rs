@@ -42,4 +42,5 @@ pub enum Command {
     Decimate(cmd::decimate::Args),
     Export(cmd::export::Args),
     View(cmd::view::Args),
+    Tile(cmd::tile::Args),
 }

@@ -8,6 +8,7 @@ pub mod info;
 pub mod input;
 pub mod mrq;
 pub mod reconstruct;
+pub mod tile;
 pub mod validate;
 pub mod view;
 
@@ -26,5 +27,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Decimate(a) => decimate::run(&a),
         Command::Export(a) => export::run(&a),
         Command::View(a) => view::run(&a),
+        Command::Tile(a) => tile::run(&a),
     }
 }

@@ -136,6 +136,14 @@ pub struct Args {
     /// step) instead of placing vertices on their prediction lines.
     #[arg(long)]
     pub keep_positions: bool,
+    /// Reconstruct one tile of a tiled run (`octowrap tile`): INPUT is the tile's points
+    /// (`tile split --merge`), the lattice and finest level are the plan's, and the finest level
+    /// keeps the faces the tile owns. Implies --keep-positions.
+    #[arg(long, value_name = "PLAN", requires = "tile")]
+    pub plan: Option<PathBuf>,
+    /// With --plan: the tile's id.
+    #[arg(long, value_name = "ID", requires = "plan")]
+    pub tile: Option<u32>,
     #[command(flatten)]
     pub clobber: ClobberArgs,
 }
@@ -193,6 +201,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.auto_faces_per_point = args.auto_faces_per_point;
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
+    }
+    if let (Some(plan), Some(tile)) = (&args.plan, args.tile) {
+        let h = super::tile::reconstruct(&args.input, plan, tile, &opts)?;
+        return write_tile(args, &h, is_mrq, to);
     }
     let mesh = args.input_args.read(&args.input)?;
     let points = mesh.vertices.positions;
@@ -272,6 +284,25 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         let mut w = WriteOptions::default();
         w.format = to;
         w.ascii = args.output_format.ascii;
+        w.no_clobber = args.clobber.no_clobber;
+        octowrap_io::write_path(&args.output, &level.mesh, &w)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes a tile's hierarchy (see `tile::reconstruct`): positions as reconstructed.
+fn write_tile(args: &Args, h: &octowrap_mesh::Hierarchy, is_mrq: bool, to: Option<Format>) -> anyhow::Result<ExitCode> {
+    if is_mrq {
+        let mut o = args.mrq.options(false, &args.input);
+        if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
+            o.quantization = Quantization::Bits(octowrap_format::reconstruction_grid_bits(h.levels.len() - 1));
+        }
+        mrq::write(&args.output, h, &o, args.clobber)?;
+    } else {
+        let k = args.write_level.map_or(h.levels.len() - 1, |k| k as usize);
+        let Some(level) = h.levels.get(k) else { bail!("--write-level {k}: no such level") };
+        let mut w = WriteOptions::default();
+        w.format = to;
         w.no_clobber = args.clobber.no_clobber;
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
