@@ -147,6 +147,7 @@ mod irregular;
 mod keymap;
 mod lattice;
 mod least_squares;
+mod lines;
 mod mapping;
 mod octree;
 mod pipeline;
@@ -259,6 +260,23 @@ pub struct ReconOptions {
     /// dragon hierarchies). A subdivided level past the limit is mapped afresh and can lie
     /// further from the points than the fitted level above it.
     pub fit_max_faces: usize,
+    /// Compute every refined vertex that has a line in the MRQ decoder's prediction (spec §6.8)
+    /// as one scalar along that line (normal-mesh geometry, module `lines`): the file written
+    /// with [`Reconstruction::line_grid`] then holds each such vertex as one number and decodes
+    /// every level to the positions reconstructed (each on a grid point). `None` (the default)
+    /// leaves the vertices free.
+    pub decoder_lines: Option<DecoderGrid>,
+}
+
+/// The grid of the MRQ file the levels are built for ([`ReconOptions::decoder_lines`]): tied to
+/// the root cube, `2^bits` steps across it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecoderGrid {
+    /// [`octowrap_format::reconstruction_grid_bits`] of the finest level: 64 steps per finest
+    /// voxel edge.
+    Finest,
+    /// This many bits (`1..=28`).
+    Bits(u32),
 }
 
 impl Default for ReconOptions {
@@ -278,6 +296,7 @@ impl Default for ReconOptions {
             fit_samples: 4,
             fit_max_faces: 100_000,
             max_faces: 200_000_000,
+            decoder_lines: None,
         }
     }
 }
@@ -323,6 +342,15 @@ pub enum Error {
         faces: u64,
         /// The limit.
         max: u64,
+    },
+    /// The MRQ decoder's lines could not be computed for a level ([`ReconOptions::decoder_lines`]:
+    /// a grid outside `1..=28` bits, a level the format cannot hold).
+    #[error("decoder lines of level {level}: {reason}")]
+    DecoderLines {
+        /// The level.
+        level: u32,
+        /// What the format reported.
+        reason: String,
     },
     /// The requested level is 0 or too deep.
     #[error("level {requested} is outside the supported range 1..={max}")]
@@ -422,6 +450,8 @@ pub struct LevelReport {
     pub filled: usize,
     /// Voxels of sparse regions, present with or without points ([`ReconOptions::region_density`]).
     pub sparse_voxels: usize,
+    /// Vertices computed as one scalar on their decoder line ([`ReconOptions::decoder_lines`]).
+    pub on_lines: usize,
     /// Stage timings.
     pub timings: StageTimings,
 }
@@ -435,6 +465,9 @@ pub struct Reconstruction {
     pub levels: Vec<LevelReport>,
     /// The deepest level whose topology the density supports.
     pub trusted_level: u32,
+    /// The grid the levels lie on with [`ReconOptions::decoder_lines`]: encode with its
+    /// [`GridSpec::quantization`](octowrap_format::GridSpec::quantization).
+    pub line_grid: Option<octowrap_format::GridSpec>,
 }
 
 /// Reconstructs `points` (world coordinates) into a hierarchy.

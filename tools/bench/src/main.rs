@@ -18,6 +18,7 @@ macro_rules! outln {
     ($($t:tt)*) => { $crate::util::emit(&format!("{}\n", format_args!($($t)*))) };
 }
 
+mod accuracy;
 mod decimate;
 mod format;
 mod io;
@@ -49,10 +50,11 @@ fn main() -> std::process::ExitCode {
     println!();
     println!("{}", util::machine_line());
     println!();
-    let sections: [(&str, fn()); 5] = [
+    let sections: [(&str, fn()); 6] = [
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
+        ("accuracy", accuracy::report),
         ("validate", validate::report),
         ("decimate", decimate::report),
     ];

@@ -14,10 +14,11 @@ use std::process::Command;
 use crate::util::{Capture, Headline};
 
 /// The areas in page order: key (the section name on the command line) and title.
-pub const AREAS: [(&str, &str); 5] = [
+pub const AREAS: [(&str, &str); 6] = [
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
+    ("accuracy", "Accuracy: MRQ on decoder lines against free positions"),
     ("validate", "Validator"),
     ("decimate", "Decimation"),
 ];

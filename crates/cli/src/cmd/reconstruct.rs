@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use octowrap_format::Quantization;
 use octowrap_io::{Format, WriteOptions};
-use octowrap_recon::{AUTO_CAP, DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage};
+use octowrap_recon::{
+    AUTO_CAP, DEEPEST_LEVEL, DecoderGrid, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage,
+};
 
 use super::input::{InputArgs, OutputFormatArgs};
 use super::mrq;
@@ -37,10 +39,13 @@ use crate::progress;
 /// whole hierarchy with its parent links. An .mrq file quantizes positions on a grid tied to the
 /// octree cube whose step is a 64th of the finest level's voxel (2^(K+6) steps across the cube
 /// for finest level K), so that quantization adds at most about 1 % to any level's distance to
-/// the points; --bits or --step set another grid. For .mrq output the vertices
-/// first slide along their tangent planes onto the lines the MRQ decoder predicts from the level
-/// above, and onto the grid, so that each costs one number and the file holds them exactly
-/// (--keep-positions writes the positions as reconstructed, each within half a grid step).
+/// the points; --bits or --step set another grid. For .mrq output every refined vertex that has
+/// a line in the MRQ decoder's prediction from the level above is computed on that line (the
+/// mapping meets the line with the points' tangent plane, the fit moves it along the line; a
+/// normal mesh), and every vertex lies on the grid: each such vertex costs one number and the file
+/// decodes to the levels reconstructed. With --step (a grid not tied to the cube) the vertices
+/// slide onto their lines after the reconstruction instead. --keep-positions leaves every vertex
+/// free (each decoded within half a grid step; a larger file).
 /// --all-levels DIR also writes DIR/level-K.ply for every level K from 0 (the root cube), with the
 /// positions the .mrq output holds.
 ///
@@ -168,6 +173,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
     }
+    // MRQ output on a grid tied to the cube: every refined vertex computed on its decoder line.
+    let on_lines = is_mrq && !args.keep_positions && args.mrq.step.is_none() && !args.mrq.exact;
+    if on_lines {
+        opts.decoder_lines = Some(args.mrq.bits.map_or(DecoderGrid::Finest, DecoderGrid::Bits));
+    }
     let mesh = args.input_args.read(&args.input)?;
     let points = mesh.vertices.positions;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.map_or(0, usize::from)).build()?;
@@ -195,11 +205,13 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
     let mut mrq_opts = args.mrq.options(false, &args.input);
-    if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
+    if let Some(grid) = r.line_grid {
+        mrq_opts.quantization = grid.quantization();
+    } else if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
         mrq_opts.quantization =
             Quantization::Bits(octowrap_format::reconstruction_grid_bits(r.hierarchy.levels.len() - 1));
     }
-    let placement = if is_mrq && !args.keep_positions {
+    let placement = if is_mrq && !args.keep_positions && !on_lines {
         let t = std::time::Instant::now();
         let p = octowrap_format::place_on_prediction_lines(&mut r.hierarchy, &mrq_opts)
             .context("placing vertices on their prediction lines")?;
@@ -209,6 +221,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     };
     if args.timings {
         say!("{}", timing_table(&r).trim_end());
+        if on_lines {
+            let on: usize = r.levels.iter().map(|l| l.on_lines).sum();
+            let all: usize = r.levels.iter().map(|l| l.vertices).sum();
+            say!("MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line");
+        }
         if let Some((p, secs)) = placement {
             say!(
                 "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
