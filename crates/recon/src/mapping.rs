@@ -103,6 +103,20 @@ pub(crate) fn onto_lines(
     });
 }
 
+/// Puts every vertex with a decoder line within `reach` of its line on the line's point nearest
+/// it, and takes the line off the others (they keep three components).
+pub(crate) fn near_lines(positions: &mut [DVec3], lines: &mut [Option<crate::lines::LocalLine>], reach: f64) {
+    positions.par_iter_mut().zip(lines.par_iter_mut()).for_each(|(x, line)| {
+        let Some(l) = line else { return };
+        let p = l.nearest(*x);
+        if p.is_finite() && p.distance(*x) <= reach {
+            *x = p;
+        } else {
+            *line = None;
+        }
+    });
+}
+
 /// The smallest fraction of a face's vector area, measured along its direction before the
 /// vertices went onto their lines, that it must keep: less means the lines folded or collapsed it.
 const MIN_AREA_KEPT: f64 = 0.1;

@@ -417,10 +417,13 @@ impl<'a> Run<'a> {
     }
 
     /// §3.6, §3.6.1 and the least-squares fit: maps the vertices of level `j` onto the points,
-    /// relaxes them, and fits them to the points. A vertex with a decoder line (`lines`, empty
-    /// or one per vertex) goes where its line meets its plane and moves along its line only:
-    /// the relaxation holds it (its tangential place is the line's), the fit moves its scalar. A
-    /// vertex whose line would fold a face keeps its orthogonal mapping and loses its line.
+    /// relaxes them, and fits them to the points. With decoder lines (`lines`, empty or one per
+    /// vertex) and a finite [`ReconOptions::line_reach`], the level is placed free, and then each
+    /// vertex within the reach of its line goes to the line's nearest point; the others lose
+    /// their line. With an infinite reach, a vertex with a line goes where its line meets its
+    /// plane and moves along its line only: the relaxation holds it (its tangential place is the
+    /// line's), the fit moves its scalar. Either way a vertex whose line would fold a face keeps
+    /// its free position and loses its line.
     /// Releases the points after the finest level's last use of them.
     fn place_vertices(
         &mut self,
@@ -433,7 +436,9 @@ impl<'a> Run<'a> {
         stage(Stage::Mapping);
         let t = Instant::now();
         let mut planes = self.map_vertices(j, rep.kind, next);
-        if !lines.is_empty() {
+        let reach = self.opts.line_reach;
+        let construct = !lines.is_empty() && reach.is_infinite();
+        if construct {
             let before = next.positions.clone();
             mapping::onto_lines(&mut next.positions, &planes, lines, voxel_size(j));
             mapping::free_folding_lines(&mut next.positions, &before, &next.quads, lines);
@@ -457,10 +462,15 @@ impl<'a> Run<'a> {
         relax::relax(&mut next.positions, &planes, &next.quads, passes);
         drop(planes);
         if fit_here {
-            self.fit_to_points(j, rep.kind, next, lines);
+            self.fit_to_points(j, rep.kind, next, if construct { lines } else { &mut [] });
             if j == self.finest {
                 self.tree.release();
             }
+        }
+        if !lines.is_empty() && !construct {
+            let free = next.positions.clone();
+            mapping::near_lines(&mut next.positions, lines, reach * voxel_size(j));
+            mapping::free_folding_lines(&mut next.positions, &free, &next.quads, lines);
         }
         rep.timings.relaxation = t.elapsed();
     }

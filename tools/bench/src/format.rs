@@ -11,7 +11,6 @@ use octowrap_format::{
 };
 use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::{Hierarchy, Mesh};
-use rayon::prelude::*;
 
 use crate::util::{best_of, best_of_cpu, headline, points_to_mesh_rms, shared_data};
 

@@ -39,13 +39,13 @@ use crate::progress;
 /// whole hierarchy with its parent links. An .mrq file quantizes positions on a grid tied to the
 /// octree cube whose step is a 64th of the finest level's voxel (2^(K+6) steps across the cube
 /// for finest level K), so that quantization adds at most about 1 % to any level's distance to
-/// the points; --bits or --step set another grid. For .mrq output every refined vertex that has
-/// a line in the MRQ decoder's prediction from the level above is computed on that line (the
-/// mapping meets the line with the points' tangent plane, the fit moves it along the line; a
-/// normal mesh), and every vertex lies on the grid: each such vertex costs one number and the file
-/// decodes to the levels reconstructed. With --step (a grid not tied to the cube) the vertices
-/// slide onto their lines after the reconstruction instead. --keep-positions leaves every vertex
-/// free (each decoded within half a grid step; a larger file).
+/// the points; --bits or --step set another grid. For .mrq output the reconstruction computes
+/// every level as the MRQ decoder will see it: each refined vertex that lies within a tenth of a
+/// voxel of the line the decoder predicts it on (from the decoded level above) goes onto that
+/// line and costs one number, and every vertex lies on the grid, so the file decodes to exactly
+/// the levels reconstructed (and --all-levels writes the same positions). With --step (a grid
+/// not tied to the cube) the vertices slide onto their lines after the reconstruction instead.
+/// --keep-positions leaves every vertex free (each decoded within half a grid step).
 /// --all-levels DIR also writes DIR/level-K.ply for every level K from 0 (the root cube), with the
 /// positions the .mrq output holds.
 ///
@@ -224,7 +224,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         if on_lines {
             let on: usize = r.levels.iter().map(|l| l.on_lines).sum();
             let all: usize = r.levels.iter().map(|l| l.vertices).sum();
-            say!("MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line");
+            let per: Vec<String> = r.levels.iter().map(|l| format!("{}/{}", l.on_lines, l.vertices)).collect();
+            say!(
+                "MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line (per level {})",
+                per.join(" ")
+            );
         }
         if let Some((p, secs)) = placement {
             say!(
