@@ -637,7 +637,7 @@ fn projected_conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut 
         }
         apply(p, ap);
         let pap = total(p, ap);
-        if !(pap > 0.0) {
+        if pap.is_nan() || pap <= 0.0 {
             break;
         }
         let alpha = rz / pap;

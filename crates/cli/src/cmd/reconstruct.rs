@@ -220,29 +220,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         None
     };
     if args.timings {
-        say!("{}", timing_table(&r).trim_end());
-        if on_lines {
-            let on: usize = r.levels.iter().map(|l| l.on_lines).sum();
-            let all: usize = r.levels.iter().map(|l| l.vertices).sum();
-            let per: Vec<String> = r.levels.iter().map(|l| format!("{}/{}", l.on_lines, l.vertices)).collect();
-            say!(
-                "MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line (per level {})",
-                per.join(" ")
-            );
-        }
-        if let Some((p, secs)) = placement {
-            say!(
-                "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
-                 ({} of them because the move would fold a face or meet another vertex), {} without a line; \
-                 largest move {:.3e}, RMS {:.3e}",
-                p.placed,
-                p.kept,
-                p.reverted,
-                p.without_line,
-                p.max_move,
-                p.rms_move
-            );
-        }
+        print_timings(&r, on_lines, placement);
     }
     let h = &r.hierarchy;
     if let Some(dir) = &args.all_levels {
@@ -268,6 +246,33 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The --timings report: the stage table, then what the MRQ lines or the placement did.
+fn print_timings(r: &Reconstruction, on_lines: bool, placement: Option<(octowrap_format::LinePlacement, f64)>) {
+    say!("{}", timing_table(r).trim_end());
+    if on_lines {
+        let on: usize = r.levels.iter().map(|l| l.on_lines).sum();
+        let all: usize = r.levels.iter().map(|l| l.vertices).sum();
+        let per: Vec<String> = r.levels.iter().map(|l| format!("{}/{}", l.on_lines, l.vertices)).collect();
+        say!(
+            "MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line (per level {})",
+            per.join(" ")
+        );
+    }
+    if let Some((p, secs)) = placement {
+        say!(
+            "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
+             ({} of them because the move would fold a face or meet another vertex), {} without a line; \
+             largest move {:.3e}, RMS {:.3e}",
+            p.placed,
+            p.kept,
+            p.reverted,
+            p.without_line,
+            p.max_move,
+            p.rms_move
+        );
+    }
 }
 
 /// Refuses, before any work, options that cannot be honoured or would be ignored.
