@@ -526,6 +526,20 @@ fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, pattern: &Pattern,
     );
 }
 
+/// `out = rows p`, the matrix's values in [`Pattern`]'s places, in fixed chunks.
+fn multiply(pattern: &Pattern, values: &[f64], p: &[DVec3], out: &mut [DVec3]) {
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
+        for (k, o) in o.iter_mut().enumerate() {
+            let v = i * CHUNK + k;
+            let row = pattern.row(v);
+            *o = pattern.columns[row.clone()]
+                .iter()
+                .zip(&values[row])
+                .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
+        }
+    });
+}
+
 /// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
 /// coordinates at once.
 fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
@@ -534,18 +548,7 @@ fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
     let (values, b, diag) = (&values[..], &b[..], &diag[..]);
     // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
     // dot products are the chunks', added in order).
-    let apply = |p: &[DVec3], out: &mut [DVec3]| {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
-            for (k, o) in o.iter_mut().enumerate() {
-                let v = i * CHUNK + k;
-                let row = pattern.row(v);
-                *o = pattern.columns[row.clone()]
-                    .iter()
-                    .zip(&values[row])
-                    .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
-            }
-        });
-    };
+    let apply = |p: &[DVec3], out: &mut [DVec3]| multiply(pattern, values, p, out);
     // Preconditioned conjugate gradients, the three coordinates at once.
     for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
         v.resize(n, DVec3::ZERO);
@@ -606,18 +609,7 @@ fn projected_conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut 
         let d = dirs[v];
         if d == DVec3::ZERO { a } else { d * d.dot(a) }
     };
-    let apply = |p: &[DVec3], out: &mut [DVec3]| {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
-            for (k, o) in o.iter_mut().enumerate() {
-                let v = i * CHUNK + k;
-                let row = pattern.row(v);
-                *o = pattern.columns[row.clone()]
-                    .iter()
-                    .zip(&values[row])
-                    .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
-            }
-        });
-    };
+    let apply = |p: &[DVec3], out: &mut [DVec3]| multiply(pattern, values, p, out);
     let total = |a: &[DVec3], b: &[DVec3]| dot(a, b).element_sum();
     for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
         v.resize(n, DVec3::ZERO);
