@@ -137,16 +137,18 @@ pub fn place_on_prediction_lines(h: &mut Hierarchy, opts: &EncodeOptions) -> Res
             let mut best: Option<Candidate> = None;
             for &predictor in candidates {
                 let place = if enc.mode == Mode::FastLattice { place_level_fast } else { place_level };
-                let c = place(
-                    &enc,
-                    pl,
-                    (k as u32, grid.bits, predictor, line_shift),
-                    &before,
-                    &normals,
+                let c = place(&LevelPlacement {
+                    enc: &enc,
+                    parent: pl,
+                    block: (k as u32, grid.bits, predictor, line_shift),
+                    positions: &before,
+                    normals: &normals,
                     reach,
-                    &|line: &dyn PlacementLine, x: DVec3, n: DVec3, r: f64| slide(line, x, n, &grid, r, guard.as_ref()),
+                    slide: &|line: &dyn PlacementLine, x: DVec3, n: DVec3, r: f64| {
+                        slide(line, x, n, &grid, r, guard.as_ref())
+                    },
                     limit,
-                );
+                });
                 if best.as_ref().is_none_or(|b| c.cost < b.cost) {
                     best = Some(c);
                 }
@@ -239,20 +241,52 @@ struct Candidate {
     cost: f64,
 }
 
+/// What the placement of one level under one predictor reads.
+struct LevelPlacement<'a> {
+    /// The level as the encoder orders it.
+    enc: &'a Encoded,
+    /// The decoded parent.
+    parent: &'a PlainLevel,
+    /// `(k, grid_bits, predictor, line_shift)` of the block.
+    block: (u32, u32, u8, u32),
+    /// The level's positions and vertex normals (input order).
+    positions: &'a [DVec3],
+    normals: &'a [DVec3],
+    /// How far each vertex may move (refused moves: -inf).
+    reach: &'a [f64],
+    /// Where a vertex lands on its line.
+    slide: &'a Slide<'a>,
+    /// The largest move; a kept vertex costs its square.
+    limit: f64,
+}
+
+impl LevelPlacement<'_> {
+    /// The candidate's answer for the vertex `v` (coding order) with line `line`: its grid point,
+    /// and the move recorded in `c`.
+    fn visit(&self, c: &mut Candidate, v: usize, line: Option<&dyn PlacementLine>) -> [i64; 3] {
+        let old = self.enc.vertex_old[v];
+        let x = self.positions[old as usize];
+        let Some(line) = line else {
+            c.none += 1;
+            return self.enc.level.q[v];
+        };
+        if let Some((p, g)) = (self.slide)(line, x, self.normals[old as usize], self.reach[old as usize]) {
+            c.cost += (p - x).length_squared();
+            c.moves.push((old, p));
+            g
+        } else {
+            c.kept += 1;
+            c.cost += self.limit * self.limit;
+            self.enc.level.q[v]
+        }
+    }
+}
+
 /// Places one level under lattice predictor `predictor`, in coding order (spec §6.2, §6.8): every
 /// vertex's line comes from the decoded parent (pass A) or from the level's vertices placed before
 /// it (pass B), so the geometry pass itself drives the placement.
-#[allow(clippy::too_many_arguments)]
-fn place_level(
-    enc: &Encoded,
-    parent: &PlainLevel,
-    (k, bits, predictor, line_shift): (u32, u32, u8, u32),
-    positions: &[DVec3],
-    normals: &[DVec3],
-    reach: &[f64],
-    slide: &Slide<'_>,
-    limit: f64,
-) -> Candidate {
+fn place_level(a: &LevelPlacement<'_>) -> Candidate {
+    let (enc, parent, (k, bits, predictor, line_shift)) = (a.enc, a.parent, a.block);
     let level = &enc.level;
     let topo = Topo {
         mode: enc.mode,
@@ -273,21 +307,7 @@ fn place_level(
     let mut q = vec![[0i64; 3]; level.q.len()];
     let pp = parent.as_parent();
     let _: Result<(), ()> = geometry_pass(&topo, Some(&pp), &mut q, &mut GeometryScratch::default(), |v, pr| {
-        let old = enc.vertex_old[v];
-        let x = positions[old as usize];
-        let Some(line) = pr.line else {
-            c.none += 1;
-            return Ok((level.q[v], None));
-        };
-        if let Some((p, g)) = slide(&line, x, normals[old as usize], reach[old as usize]) {
-            c.cost += (p - x).length_squared();
-            c.moves.push((old, p));
-            Ok((g, None))
-        } else {
-            c.kept += 1;
-            c.cost += limit * limit;
-            Ok((level.q[v], None))
-        }
+        Ok((a.visit(&mut c, v, pr.line.as_ref().map(|l| l as &dyn PlacementLine)), None))
     });
     c
 }
@@ -330,17 +350,8 @@ impl PlacementLine for FixedLine {
 }
 
 /// [`place_level`] for a mode 3 level (spec §6.8): lines from [`fast::fast_pass`].
-#[allow(clippy::too_many_arguments)]
-fn place_level_fast(
-    enc: &Encoded,
-    parent: &PlainLevel,
-    (k, bits, predictor, line_shift): (u32, u32, u8, u32),
-    positions: &[DVec3],
-    normals: &[DVec3],
-    reach: &[f64],
-    slide: &Slide<'_>,
-    limit: f64,
-) -> Candidate {
+fn place_level_fast(a: &LevelPlacement<'_>) -> Candidate {
+    let (enc, parent, (k, bits, predictor, line_shift)) = (a.enc, a.parent, a.block);
     let level = &enc.level;
     let nv = level.q.len();
     let contexts = level_contexts(enc);
@@ -348,21 +359,7 @@ fn place_level_fast(
     let mut c = Candidate { moves: Vec::new(), kept: 0, none: 0, cost: 0.0 };
     let mut q = vec![[0i64; 3]; nv];
     let _: Result<(), ()> = fast::fast_pass(&topo, &parent.q, &mut q, &mut Vec::new(), |v, pr| {
-        let old = enc.vertex_old[v];
-        let x = positions[old as usize];
-        let Some(line) = pr.line else {
-            c.none += 1;
-            return Ok(level.q[v]);
-        };
-        if let Some((p, g)) = slide(&line, x, normals[old as usize], reach[old as usize]) {
-            c.cost += (p - x).length_squared();
-            c.moves.push((old, p));
-            Ok(g)
-        } else {
-            c.kept += 1;
-            c.cost += limit * limit;
-            Ok(level.q[v])
-        }
+        Ok(a.visit(&mut c, v, pr.line.as_ref().map(|l| l as &dyn PlacementLine)))
     });
     c
 }

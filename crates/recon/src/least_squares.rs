@@ -27,6 +27,12 @@
 //!    points on the Rabbit's subdivided level 6; with it they stay as near as the mapping puts
 //!    them, and the subdivided levels come out closer to the points too.
 //!
+//! **On decoder lines** (module `lines`): a vertex with a line has one unknown, its scalar along
+//! the line (`x_v = o_v + s_v d_v`), and the others three. The same system is then solved over
+//! that subspace by projected conjugate gradients: the residual and the preconditioned residual
+//! of a line vertex are projected onto its direction, so every step moves it along its line
+//! only, and the step lengths are one scalar over all unknowns (the three coordinates couple).
+//!
 //! Each pass lowers the energy, so the points-to-mesh distance falls; the regulariser keeps
 //! vertices without points in place and the system well posed. Measured on the bunny (see
 //! `docs/decisions.md`, "Least-squares fit"), the points-to-mesh RMS of levels 1-7 falls 1.5-4.9x.
@@ -102,8 +108,15 @@ struct Foot {
 }
 
 /// Fits `positions` to the points for `passes` passes, with about `samples` sample points per
-/// face.
-pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3], passes: u32, samples: u32) {
+/// face. `dirs` is empty (every vertex free) or gives each vertex's unit line direction, zero for
+/// a free vertex: a vertex with a direction moves along it only.
+pub(crate) fn fit(
+    input: &Input<'_>,
+    quads: &[[u32; 4]],
+    positions: &mut [DVec3],
+    (passes, samples): (u32, u32),
+    dirs: &[DVec3],
+) {
     let grid = input.grid;
     if passes == 0 || quads.is_empty() || input.points.is_empty() || grid.len() == 0 {
         return;
@@ -151,7 +164,11 @@ pub(crate) fn fit(input: &Input<'_>, quads: &[[u32; 4]], positions: &mut [DVec3]
             reproject(&mut feet, &incidence, quads, positions, &work.splits);
         }
         system(&feet, quads, &incidence, &pattern, positions, &mut work);
-        conjugate_gradients(&pattern, positions, &mut work);
+        if dirs.is_empty() {
+            conjugate_gradients(&pattern, positions, &mut work);
+        } else {
+            projected_conjugate_gradients(&pattern, positions, &mut work, dirs);
+        }
     }
 }
 
@@ -509,6 +526,20 @@ fn system(feet: &[Foot], quads: &[[u32; 4]], inc: &Incidence, pattern: &Pattern,
     );
 }
 
+/// `out = rows p`, the matrix's values in [`Pattern`]'s places, in fixed chunks.
+fn multiply(pattern: &Pattern, values: &[f64], p: &[DVec3], out: &mut [DVec3]) {
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
+        for (k, o) in o.iter_mut().enumerate() {
+            let v = i * CHUNK + k;
+            let row = pattern.row(v);
+            *o = pattern.columns[row.clone()]
+                .iter()
+                .zip(&values[row])
+                .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
+        }
+    });
+}
+
 /// A few preconditioned conjugate-gradient steps on `rows x = b`, from `x`, the three
 /// coordinates at once.
 fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
@@ -517,18 +548,7 @@ fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
     let (values, b, diag) = (&values[..], &b[..], &diag[..]);
     // Every vector loop runs in fixed chunks (few tasks on small levels; the partial sums of the
     // dot products are the chunks', added in order).
-    let apply = |p: &[DVec3], out: &mut [DVec3]| {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
-            for (k, o) in o.iter_mut().enumerate() {
-                let v = i * CHUNK + k;
-                let row = pattern.row(v);
-                *o = pattern.columns[row.clone()]
-                    .iter()
-                    .zip(&values[row])
-                    .fold(DVec3::ZERO, |s, (&c, &a)| s + p[c as usize] * a);
-            }
-        });
-    };
+    let apply = |p: &[DVec3], out: &mut [DVec3]| multiply(pattern, values, p, out);
     // Preconditioned conjugate gradients, the three coordinates at once.
     for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
         v.resize(n, DVec3::ZERO);
@@ -569,6 +589,71 @@ fn conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work) {
         let rz_new: DVec3 = parts.iter().map(|p| p.0).sum();
         rr = parts.iter().map(|p| p.1).sum();
         let beta = DVec3::select(rz.cmpgt(DVec3::ZERO), rz_new / rz, DVec3::ZERO);
+        rz = rz_new;
+        p.par_chunks_mut(CHUNK).zip(z.par_chunks(CHUNK)).for_each(|(p, z)| {
+            for (p, z) in p.iter_mut().zip(z) {
+                *p = *z + beta * *p;
+            }
+        });
+    }
+}
+
+/// [`conjugate_gradients`] over the subspace where every vertex with a direction (`dirs[v]`
+/// unit, zero for a free vertex) moves along it only: preconditioned conjugate gradients with the
+/// residual projected per vertex, one step length for all unknowns.
+fn projected_conjugate_gradients(pattern: &Pattern, x: &mut [DVec3], work: &mut Work, dirs: &[DVec3]) {
+    let n = x.len();
+    let Work { values, b, diag, ap, r, z, p, .. } = work;
+    let (values, b, diag) = (&values[..], &b[..], &diag[..]);
+    let project = |v: usize, a: DVec3| {
+        let d = dirs[v];
+        if d == DVec3::ZERO { a } else { d * d.dot(a) }
+    };
+    let apply = |p: &[DVec3], out: &mut [DVec3]| multiply(pattern, values, p, out);
+    let total = |a: &[DVec3], b: &[DVec3]| dot(a, b).element_sum();
+    for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
+        v.resize(n, DVec3::ZERO);
+    }
+    apply(x, ap);
+    r.par_iter_mut().zip(b.par_iter().zip(ap.par_iter())).enumerate().for_each(|(v, (r, (b, a)))| {
+        *r = project(v, *b - *a);
+    });
+    z.par_iter_mut().zip(r.par_iter().zip(diag.par_iter())).for_each(|(z, (r, d))| *z = *r / *d);
+    p.copy_from_slice(z);
+    let mut rz = total(r, z);
+    let mut rr = total(r, r);
+    let stop = rr * (CG_TOLERANCE * CG_TOLERANCE);
+    for _ in 0..CG_ITERATIONS {
+        if rr <= stop {
+            break;
+        }
+        apply(p, ap);
+        let pap = total(p, ap);
+        if pap.is_nan() || pap <= 0.0 {
+            break;
+        }
+        let alpha = rz / pap;
+        let parts: Vec<(f64, f64)> = x
+            .par_chunks_mut(CHUNK)
+            .zip(r.par_chunks_mut(CHUNK))
+            .zip(z.par_chunks_mut(CHUNK))
+            .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)).zip(diag.par_chunks(CHUNK)))
+            .enumerate()
+            .map(|(chunk, (((x, r), z), ((p, ap), d)))| {
+                let (mut rz, mut rr) = (0.0, 0.0);
+                for i in 0..x.len() {
+                    x[i] += alpha * p[i];
+                    r[i] = project(chunk * CHUNK + i, r[i] - alpha * ap[i]);
+                    z[i] = r[i] / d[i];
+                    rz += r[i].dot(z[i]);
+                    rr += r[i].length_squared();
+                }
+                (rz, rr)
+            })
+            .collect();
+        let rz_new: f64 = parts.iter().map(|p| p.0).sum();
+        rr = parts.iter().map(|p| p.1).sum();
+        let beta = if rz > 0.0 { rz_new / rz } else { 0.0 };
         rz = rz_new;
         p.par_chunks_mut(CHUNK).zip(z.par_chunks(CHUNK)).for_each(|(p, z)| {
             for (p, z) in p.iter_mut().zip(z) {

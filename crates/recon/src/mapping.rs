@@ -55,11 +55,111 @@ impl TangentPlane {
         Self { point: point.as_vec3(), normal: normal.as_vec3() }
     }
 
+    /// Where the line through `origin` along unit `dir` meets the plane (its distance from
+    /// `origin` along `dir`), unless the line meets it at a grazing angle.
+    fn meet(&self, origin: DVec3, dir: DVec3) -> Option<f64> {
+        let n = self.normal.as_dvec3();
+        let cos = n.dot(dir);
+        (cos.abs() >= MIN_LINE_COSINE).then(|| (self.point.as_dvec3() - origin).dot(n) / cos)
+    }
+
     /// Orthogonal projection onto the plane (equation (1)).
     #[inline]
     pub(crate) fn project(&self, v: DVec3) -> DVec3 {
         let n = self.normal.as_dvec3();
         v - n * (v - self.point.as_dvec3()).dot(n)
+    }
+}
+
+/// The smallest cosine between a vertex's decoder line and its plane's normal for which the
+/// vertex goes where the line meets the plane (60 degrees); at more grazing angles it goes to the
+/// line's point nearest its orthogonal projection.
+const MIN_LINE_COSINE: f64 = 0.5;
+
+/// How far, in voxel edges of the level, a line's meeting point may lie from the orthogonal
+/// projection before the line's point nearest that projection is taken instead.
+const MAX_LINE_REACH: f64 = 1.5;
+
+/// Normal-mesh mapping (module `lines`): moves every vertex with a decoder line from where the
+/// mapping put it (`positions`, each on its plane) to where its line meets its plane, or, at a
+/// grazing angle, too far (more than 1.5 `voxel`) or without a plane, to the line's point
+/// nearest it. Vertices without a line stay. `lines` is empty or indexed like `positions`.
+pub(crate) fn onto_lines(
+    positions: &mut [DVec3],
+    planes: &[Option<TangentPlane>],
+    lines: &[Option<crate::lines::LocalLine>],
+    voxel: f64,
+) {
+    if lines.is_empty() {
+        return;
+    }
+    positions.par_iter_mut().zip(planes).zip(lines).for_each(|((x, plane), line)| {
+        let Some(line) = line else { return };
+        let met = plane
+            .and_then(|p| p.meet(line.origin, line.dir))
+            .map(|s| line.origin + line.dir * s)
+            .filter(|p| p.is_finite() && p.distance(*x) <= MAX_LINE_REACH * voxel);
+        *x = met.unwrap_or_else(|| line.nearest(*x));
+    });
+}
+
+/// Puts every vertex with a decoder line within `reach` of its line on the line's point nearest
+/// it, and takes the line off the others (they keep three components).
+pub(crate) fn near_lines(positions: &mut [DVec3], lines: &mut [Option<crate::lines::LocalLine>], reach: f64) {
+    positions.par_iter_mut().zip(lines.par_iter_mut()).for_each(|(x, line)| {
+        let Some(l) = line else { return };
+        let p = l.nearest(*x);
+        if p.is_finite() && p.distance(*x) <= reach {
+            *x = p;
+        } else {
+            *line = None;
+        }
+    });
+}
+
+/// The smallest fraction of a face's vector area, measured along its direction before the
+/// vertices went onto their lines, that it must keep: less means the lines folded or collapsed it.
+const MIN_AREA_KEPT: f64 = 0.1;
+
+/// Takes the line off the vertices whose move onto it (from `before`, the orthogonal mapping)
+/// folds, flips or collapses a face (its vector area along its former direction falls below a
+/// tenth): per such face, its vertex that moved most goes back to `before` and keeps three
+/// components, until no face is folded. Returns the number of vertices freed.
+pub(crate) fn free_folding_lines(
+    positions: &mut [DVec3],
+    before: &[DVec3],
+    quads: &[[u32; 4]],
+    lines: &mut [Option<crate::lines::LocalLine>],
+) -> usize {
+    let area = |p: &[DVec3], q: &[u32; 4]| {
+        (0..4).fold(DVec3::ZERO, |s, i| s + p[q[i] as usize].cross(p[q[(i + 1) % 4] as usize]))
+    };
+    let mut freed = 0;
+    loop {
+        let worst: Vec<u32> = quads
+            .par_iter()
+            .filter_map(|q| {
+                let moved = |v: u32| lines[v as usize].is_some() && positions[v as usize] != before[v as usize];
+                if !q.iter().any(|&v| moved(v)) {
+                    return None;
+                }
+                let (old, new) = (area(before, q), area(positions, q));
+                if new.dot(old) >= MIN_AREA_KEPT * old.length_squared() {
+                    return None;
+                }
+                let far = |v: u32| positions[v as usize].distance_squared(before[v as usize]);
+                q.iter().copied().filter(|&v| moved(v)).reduce(|a, b| if far(b) > far(a) { b } else { a })
+            })
+            .collect();
+        if worst.is_empty() {
+            return freed;
+        }
+        for v in worst {
+            if lines[v as usize].take().is_some() {
+                positions[v as usize] = before[v as usize];
+                freed += 1;
+            }
+        }
     }
 }
 

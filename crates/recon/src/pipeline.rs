@@ -15,14 +15,17 @@ use octowrap_geom::{DVec3, morton};
 use octowrap_mesh::{FaceList, FaceOrigin, Hierarchy, Level, LevelLattice, Mesh, PointCloud};
 use rayon::prelude::*;
 
+use octowrap_format::LineOrigin;
+
 use crate::irregular::Decisions;
 use crate::lattice::{MAX_LEVEL, unslot};
+use crate::lines::{LineRun, LocalLine};
 use crate::mapping::TangentPlane;
 use crate::octree::{Octree, voxel_size};
 use crate::rankmap::RankMap;
 use crate::{
-    AUTO_CAP, Error, LevelKind, LevelReport, MaxLevel, Progress, ReconOptions, Reconstruction, SparseMode, Stage,
-    StageTimings,
+    AUTO_CAP, DecoderGrid, Error, LevelKind, LevelReport, MaxLevel, Progress, ReconOptions, Reconstruction, SparseMode,
+    Stage, StageTimings,
 };
 use crate::{autolevel, extract, irregular, least_squares, mapping, regions, regular, relax, sheet, sparse, untangle};
 
@@ -36,7 +39,11 @@ pub fn reconstruct_with_progress(
     check_input(points, opts)?;
     let mut run = Run::partition(points, opts, progress)?;
     let (mut prev, root_report) = run.root_cube(points.len());
+    let mut lines = run.line_run()?;
     let mut levels = vec![prev.take_level(&run.tree, false)];
+    if let Some(lr) = &mut lines {
+        lr.push(&levels[0])?;
+    }
     let mut reports = vec![root_report];
     let mut j = 0;
     while j < run.finest {
@@ -51,21 +58,36 @@ pub fn reconstruct_with_progress(
         };
         // The level above is not needed any more (its output level is already built).
         drop(std::mem::take(&mut prev));
-        run.place_vertices(j, &mut next, &mut rep, &mut stage);
+        let mut on = match &lines {
+            Some(lr) => next.decoder_lines(&run.tree, lr, rep.kind)?,
+            None => Vec::new(),
+        };
+        run.place_vertices(j, &mut next, &mut rep, &mut stage, &mut on);
         if run.auto_level(j, &next) == autolevel::Verdict::Drop {
             break;
+        }
+        if let Some(lr) = &lines {
+            lr.snap(&mut next.positions, &on);
+            rep.on_lines = on.iter().filter(|l| l.is_some()).count();
         }
         rep.faces = next.quads.len();
         rep.vertices = next.corners.len();
         let mut level = next.take_level(&run.tree, j == run.finest);
         untangle_level(&mut level, opts, &mut rep);
+        if let Some(lr) = &mut lines {
+            lr.exact(&mut level.mesh.vertices.positions);
+            if j < run.finest {
+                lr.push(&level)?;
+            }
+        }
         levels.push(level);
         reports.push(rep);
         prev = next;
     }
     let hierarchy = Hierarchy { levels, cube: Some(run.tree.frame.cube()) };
     let auto = run.auto.take().and_then(|a| a.finish(run.tree.frame.edge));
-    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: run.trusted, auto })
+    let line_grid = lines.map(|lr| lr.grid());
+    Ok(Reconstruction { hierarchy, levels: reports, trusted_level: run.trusted, auto, line_grid })
 }
 
 /// Rejects input that cannot be reconstructed: no points, non-finite coordinates, more points
@@ -229,6 +251,17 @@ impl<'a> Run<'a> {
         self.part_times[self.trusted as usize] += t.elapsed();
     }
 
+    /// The decoder's view of the levels ([`ReconOptions::decoder_lines`], module `lines`), on
+    /// the grid asked for; `None` without it.
+    fn line_run(&self) -> Result<Option<LineRun>, Error> {
+        let Some(grid) = self.opts.decoder_lines else { return Ok(None) };
+        let bits = match grid {
+            DecoderGrid::Finest => octowrap_format::reconstruction_grid_bits(self.finest as usize),
+            DecoderGrid::Bits(b) => b,
+        };
+        LineRun::new(self.tree.frame, bits).map(Some)
+    }
+
     /// §3.3: level 0, the six faces of the root cube, and its report.
     fn root_cube(&self, points: usize) -> (LevelState, LevelReport) {
         let root_slots: Vec<u64> = (0..6u8).map(|d| crate::lattice::slot(0, d)).collect();
@@ -255,6 +288,7 @@ impl<'a> Run<'a> {
             filled: 0,
             sparse_voxels: 0,
             intersecting: None,
+            on_lines: 0,
             timings: StageTimings { partitioning: self.part_times[0], ..StageTimings::default() },
         };
         (state, report)
@@ -296,6 +330,7 @@ impl<'a> Run<'a> {
             filled,
             sparse_voxels,
             intersecting: None,
+            on_lines: 0,
             timings: StageTimings {
                 partitioning: self.part_times.get(j as usize).copied().unwrap_or_default() + gap_time,
                 ..StageTimings::default()
@@ -398,12 +433,37 @@ impl<'a> Run<'a> {
     }
 
     /// §3.6, §3.6.1 and the least-squares fit: maps the vertices of level `j` onto the points,
-    /// relaxes them, and fits them to the points. Releases the points after the finest level's
-    /// last use of them.
-    fn place_vertices(&mut self, j: u32, next: &mut LevelState, rep: &mut LevelReport, stage: &mut dyn FnMut(Stage)) {
+    /// relaxes them, and fits them to the points. With decoder lines (`lines`, empty or one per
+    /// vertex) and a finite [`ReconOptions::line_reach`], the level is placed free, and then each
+    /// vertex within the reach of its line goes to the line's nearest point; the others lose
+    /// their line. With an infinite reach, a vertex with a line goes where its line meets its
+    /// plane and moves along its line only: the relaxation holds it (its tangential place is the
+    /// line's), the fit moves its scalar. Either way a vertex whose line would fold a face keeps
+    /// its free position and loses its line.
+    /// Releases the points after the finest level's last use of them.
+    fn place_vertices(
+        &mut self,
+        j: u32,
+        next: &mut LevelState,
+        rep: &mut LevelReport,
+        stage: &mut dyn FnMut(Stage),
+        lines: &mut [Option<LocalLine>],
+    ) {
         stage(Stage::Mapping);
         let t = Instant::now();
-        let planes = self.map_vertices(j, rep.kind, next);
+        let mut planes = self.map_vertices(j, rep.kind, next);
+        let reach = self.opts.line_reach;
+        let construct = !lines.is_empty() && reach.is_infinite();
+        if construct {
+            let before = next.positions.clone();
+            mapping::onto_lines(&mut next.positions, &planes, lines, voxel_size(j));
+            mapping::free_folding_lines(&mut next.positions, &before, &next.quads, lines);
+            for (plane, line) in planes.iter_mut().zip(lines.iter()) {
+                if line.is_some() {
+                    *plane = None;
+                }
+            }
+        }
         rep.timings.mapping = t.elapsed();
         let opts = self.opts;
         // The auto choice's levels past the trusted one are fitted whatever their size: they
@@ -421,10 +481,15 @@ impl<'a> Run<'a> {
         relax::relax(&mut next.positions, &planes, &next.quads, passes);
         drop(planes);
         if fit_here {
-            self.fit_to_points(j, rep.kind, next);
+            self.fit_to_points(j, rep.kind, next, if construct { lines } else { &mut [] });
             if j == self.finest && self.auto.is_none() {
                 self.tree.release();
             }
+        }
+        if !lines.is_empty() && !construct {
+            let free = next.positions.clone();
+            mapping::near_lines(&mut next.positions, lines, reach * voxel_size(j));
+            mapping::free_folding_lines(&mut next.positions, &free, &next.quads, lines);
         }
         rep.timings.relaxation = t.elapsed();
     }
@@ -475,7 +540,7 @@ impl<'a> Run<'a> {
     /// `least_squares`). A subdivided level starts from its fitted parent's surface, so it takes
     /// at most two passes: they do what three do on a wrapped level (the bunny's level 6: RMS
     /// .00024 with three, .00025 with two) at two thirds of the cost.
-    fn fit_to_points(&self, j: u32, kind: LevelKind, next: &mut LevelState) {
+    fn fit_to_points(&self, j: u32, kind: LevelKind, next: &mut LevelState, lines: &[Option<LocalLine>]) {
         // The deepest level kept holds the faces' voxels (a wrapped level's own, a subdivided
         // level's parents).
         let g = j.min(self.tree.depth());
@@ -497,7 +562,8 @@ impl<'a> Run<'a> {
         };
         let input = least_squares::Input { points: &self.tree.points, grid, face_voxel: &face_voxel };
         let passes = if kind == LevelKind::Wrapped { self.opts.fit_passes } else { self.opts.fit_passes.min(2) };
-        least_squares::fit(&input, &next.quads, &mut next.positions, passes, self.opts.fit_samples);
+        let dirs: Vec<DVec3> = lines.iter().map(|l| l.map_or(DVec3::ZERO, |l| l.dir)).collect();
+        least_squares::fit(&input, &next.quads, &mut next.positions, (passes, self.opts.fit_samples), &dirs);
     }
 }
 
@@ -569,6 +635,21 @@ struct LevelState {
 }
 
 impl LevelState {
+    /// The decoder line of every vertex with one (module `lines`): through its lattice point on
+    /// a wrapped level, through the parent's bilinear point on a subdivided one.
+    fn decoder_lines(&self, tree: &Octree, lines: &LineRun, kind: LevelKind) -> Result<Vec<Option<LocalLine>>, Error> {
+        let child = Level {
+            mesh: Mesh {
+                vertices: PointCloud::from_positions(self.positions.iter().map(|&p| tree.frame.to_world(p)).collect()),
+                faces: FaceList::from_quads(&self.quads),
+            },
+            origins: self.origins.clone(),
+            lattice: Some(LevelLattice { face_slots: face_slots(&self.slots), vertex_corners: self.corners.clone() }),
+        };
+        let origin = if kind == LevelKind::Subdivided { LineOrigin::Bilinear } else { LineOrigin::LatticePoint };
+        lines.lines(&child, origin)
+    }
+
     /// The output level; moves the origins out (the next level does not need them), and with
     /// `last` also the positions, corners and quads (converted in place, no copies at the
     /// finest level).
@@ -587,18 +668,21 @@ impl LevelState {
             FaceList::from_quads(&self.quads)
         };
         let mesh = Mesh { vertices: PointCloud::from_positions(world), faces };
-        let face_slots = self
-            .slots
-            .par_iter()
-            .map(|&s| {
-                let (code, side) = unslot(s);
-                (morton::decode(code), side)
-            })
-            .collect();
         Level {
             mesh,
             origins: std::mem::take(&mut self.origins),
-            lattice: Some(LevelLattice { face_slots, vertex_corners }),
+            lattice: Some(LevelLattice { face_slots: face_slots(&self.slots), vertex_corners }),
         }
     }
+}
+
+/// Every slot's voxel and side.
+fn face_slots(slots: &[u64]) -> Vec<([u32; 3], u8)> {
+    slots
+        .par_iter()
+        .map(|&s| {
+            let (code, side) = unslot(s);
+            (morton::decode(code), side)
+        })
+        .collect()
 }

@@ -18,6 +18,7 @@ macro_rules! outln {
     ($($t:tt)*) => { $crate::util::emit(&format!("{}\n", format_args!($($t)*))) };
 }
 
+mod accuracy;
 mod decimate;
 mod format;
 mod fuzz;
@@ -55,6 +56,7 @@ fn main() -> std::process::ExitCode {
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
+        ("accuracy", accuracy::report),
         ("validate", validate::report),
         ("decimate", decimate::report),
         ("fuzz", fuzz::report),

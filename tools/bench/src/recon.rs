@@ -296,7 +296,7 @@ fn regions_effect(name: &str, points: &[DVec3], max_level: u32, region_levels: u
 }
 
 /// Area-uniform samples of a triangle mesh with Gaussian noise of `sigma`.
-fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
+pub fn resample(mesh: &Mesh, n: usize, sigma: f64) -> Vec<DVec3> {
     let sampler = octowrap_mesh::shapes::SurfaceSampler::new(mesh);
     (0..n as u64).into_par_iter().map(|i| sampler.point(i, sigma)).collect()
 }

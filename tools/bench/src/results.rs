@@ -18,6 +18,7 @@ pub const AREAS: [(&str, &str); 6] = [
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
+    ("accuracy", "Accuracy: MRQ on decoder lines against free positions"),
     ("validate", "Validator"),
     ("decimate", "Decimation"),
     ("fuzz", "Fuzzing: the last tools/fuzz campaign"),

@@ -8,7 +8,8 @@ use anyhow::{Context, bail};
 use octowrap_format::Quantization;
 use octowrap_io::{Format, WriteOptions};
 use octowrap_recon::{
-    AUTO_CAP, AutoChoice, AutoStop, DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, Reconstruction, SparseMode, Stage,
+    AUTO_CAP, AutoChoice, AutoStop, DEEPEST_LEVEL, DecoderGrid, LevelKind, MaxLevel, ReconOptions, Reconstruction,
+    SparseMode, Stage,
 };
 
 use super::input::{InputArgs, OutputFormatArgs};
@@ -44,10 +45,13 @@ use crate::progress;
 /// whole hierarchy with its parent links. An .mrq file quantizes positions on a grid tied to the
 /// octree cube whose step is a 64th of the finest level's voxel (2^(K+6) steps across the cube
 /// for finest level K), so that quantization adds at most about 1 % to any level's distance to
-/// the points; --bits or --step set another grid. For .mrq output the vertices
-/// first slide along their tangent planes onto the lines the MRQ decoder predicts from the level
-/// above, and onto the grid, so that each costs one number and the file holds them exactly
-/// (--keep-positions writes the positions as reconstructed, each within half a grid step).
+/// the points; --bits or --step set another grid. For .mrq output the reconstruction computes
+/// every level as the MRQ decoder will see it: each refined vertex that lies within a tenth of a
+/// voxel of the line the decoder predicts it on (from the decoded level above) goes onto that
+/// line and costs one number, and every vertex lies on the grid, so the file decodes to exactly
+/// the levels reconstructed (and --all-levels writes the same positions). With --step (a grid
+/// not tied to the cube) the vertices slide onto their lines after the reconstruction instead.
+/// --keep-positions leaves every vertex free (each decoded within half a grid step).
 /// --all-levels DIR also writes DIR/level-K.ply for every level K from 0 (the root cube), with the
 /// positions the .mrq output holds.
 ///
@@ -206,6 +210,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         let h = super::tile::reconstruct(&args.input, plan, tile, &opts)?;
         return write_tile(args, &h, is_mrq, to);
     }
+    // MRQ output on a grid tied to the cube: every refined vertex computed on its decoder line.
+    let on_lines = is_mrq && !args.keep_positions && args.mrq.step.is_none() && !args.mrq.exact;
+    if on_lines {
+        opts.decoder_lines = Some(args.mrq.bits.map_or(DecoderGrid::Finest, DecoderGrid::Bits));
+    }
     let mesh = args.input_args.read(&args.input)?;
     let points = mesh.vertices.positions;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.map_or(0, usize::from)).build()?;
@@ -236,11 +245,13 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         say!("{}", auto_message(a, points.len(), &opts));
     }
     let mut mrq_opts = args.mrq.options(false, &args.input);
-    if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
+    if let Some(grid) = r.line_grid {
+        mrq_opts.quantization = grid.quantization();
+    } else if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
         mrq_opts.quantization =
             Quantization::Bits(octowrap_format::reconstruction_grid_bits(r.hierarchy.levels.len() - 1));
     }
-    let placement = if is_mrq && !args.keep_positions {
+    let placement = if is_mrq && !args.keep_positions && !on_lines {
         let t = std::time::Instant::now();
         let p = octowrap_format::place_on_prediction_lines(&mut r.hierarchy, &mrq_opts)
             .context("placing vertices on their prediction lines")?;
@@ -249,20 +260,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         None
     };
     if args.timings {
-        say!("{}", timing_table(&r).trim_end());
-        if let Some((p, secs)) = placement {
-            say!(
-                "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
-                 ({} of them because the move would fold a face or meet another vertex), {} without a line; \
-                 largest move {:.3e}, RMS {:.3e}",
-                p.placed,
-                p.kept,
-                p.reverted,
-                p.without_line,
-                p.max_move,
-                p.rms_move
-            );
-        }
+        print_timings(&r, on_lines, placement);
     }
     let h = &r.hierarchy;
     if let Some(dir) = &args.all_levels {
@@ -307,6 +305,33 @@ fn write_tile(args: &Args, h: &octowrap_mesh::Hierarchy, is_mrq: bool, to: Optio
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The --timings report: the stage table, then what the MRQ lines or the placement did.
+fn print_timings(r: &Reconstruction, on_lines: bool, placement: Option<(octowrap_format::LinePlacement, f64)>) {
+    say!("{}", timing_table(r).trim_end());
+    if on_lines {
+        let on: usize = r.levels.iter().map(|l| l.on_lines).sum();
+        let all: usize = r.levels.iter().map(|l| l.vertices).sum();
+        let per: Vec<String> = r.levels.iter().map(|l| format!("{}/{}", l.on_lines, l.vertices)).collect();
+        say!(
+            "MRQ decoder lines: {on} of {all} vertices computed as one scalar on their line (per level {})",
+            per.join(" ")
+        );
+    }
+    if let Some((p, secs)) = placement {
+        say!(
+            "MRQ line placement {secs:.4} s: {} vertices on their prediction lines, {} kept where they were \
+             ({} of them because the move would fold a face or meet another vertex), {} without a line; \
+             largest move {:.3e}, RMS {:.3e}",
+            p.placed,
+            p.kept,
+            p.reverted,
+            p.without_line,
+            p.max_move,
+            p.rms_move
+        );
+    }
 }
 
 /// Refuses, before any work, options that cannot be honoured or would be ignored.
