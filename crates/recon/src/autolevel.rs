@@ -105,7 +105,7 @@ impl AutoLevel {
 /// 0-1-2, 0-2-3) of a level whose faces are about `cell` wide; points with no face in the 3x3x3
 /// cells around them are left out. 0 when no point has a face near.
 pub(crate) fn rms_to_mesh(points: &[Vec3], quads: &[[u32; 4]], positions: &[DVec3], cell: f64) -> f64 {
-    if quads.is_empty() || points.is_empty() || !(cell > 0.0) {
+    if quads.is_empty() || points.is_empty() || cell.is_nan() || cell <= 0.0 {
         return 0.0;
     }
     let n = (1.0 / cell).ceil().max(1.0);
