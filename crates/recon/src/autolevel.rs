@@ -7,8 +7,9 @@
 //! subdivided level is kept when its RMS is at most `1 /`
 //! [`crate::ReconOptions::auto_min_gain`] of its parent's; otherwise it is dropped and its parent
 //! is the finest level. A further level is built only while its faces (four times the last
-//! level's) stay within [`crate::ReconOptions::auto_faces_per_point`] times the input points and
-//! [`crate::ReconOptions::max_faces`], and at most [`EXTRA_LEVELS`] levels past the trusted one.
+//! level's) stay within [`crate::ReconOptions::auto_faces_per_point`] times the input points,
+//! [`crate::ReconOptions::auto_max_faces`] and [`crate::ReconOptions::max_faces`], and at most
+//! [`EXTRA_LEVELS`] levels past the trusted one.
 //!
 //! The measure depends only on the level's positions and the points, summed in point order, so
 //! the choice is the same whatever the number of threads.
@@ -58,7 +59,7 @@ impl AutoLevel {
             trusted,
             cap: trusted.saturating_add(EXTRA_LEVELS).min(deepest),
             min_gain,
-            max_faces: (per_point * points as f64).min(opts.max_faces as f64),
+            max_faces: (per_point * points as f64).min(opts.max_faces as f64).min(opts.auto_max_faces as f64),
             errors: Vec::new(),
             stop: None,
         }
@@ -82,7 +83,7 @@ impl AutoLevel {
         self.errors.push((j, rms));
         let next = 4.0 * faces as f64;
         if next > self.max_faces {
-            self.stop = Some((j, AutoStop::TooManyFaces { next_faces: next as u64 }));
+            self.stop = Some((j, AutoStop::TooManyFaces { next_faces: next as u64, limit: self.max_faces as u64 }));
             return Verdict::Stop;
         }
         if j >= self.cap {
@@ -104,7 +105,7 @@ impl AutoLevel {
 /// 0-1-2, 0-2-3) of a level whose faces are about `cell` wide; points with no face in the 3x3x3
 /// cells around them are left out. 0 when no point has a face near.
 pub(crate) fn rms_to_mesh(points: &[Vec3], quads: &[[u32; 4]], positions: &[DVec3], cell: f64) -> f64 {
-    if quads.is_empty() || points.is_empty() || !(cell > 0.0) {
+    if quads.is_empty() || points.is_empty() || cell.is_nan() || cell <= 0.0 {
         return 0.0;
     }
     let n = (1.0 / cell).ceil().max(1.0);
@@ -220,7 +221,7 @@ mod tests {
         assert_eq!(a.verdict(6, 600, 0.5), Verdict::Stop, "2,400 faces next, more than 2 per point");
         let c = a.finish(2.0).expect("stopped");
         assert_eq!((c.level, c.errors), (6, vec![(5, 2.0), (6, 1.0)]));
-        assert!(matches!(c.stop, AutoStop::TooManyFaces { next_faces: 2400 }));
+        assert!(matches!(c.stop, AutoStop::TooManyFaces { next_faces: 2400, limit: 2000 }));
         let mut a = AutoLevel::new(5, 20, 1000, &opts);
         assert_eq!(a.verdict(5, 10, 1.0), Verdict::Continue);
         assert_eq!(a.verdict(6, 40, 0.8), Verdict::Drop, "a fall of 1.25x is not worth it");

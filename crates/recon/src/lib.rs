@@ -103,15 +103,16 @@
 //! * **The finest level, [`MaxLevel::Auto`]** (the default): the trusted level shows only the
 //!   detail that a median voxel's 8 points pin down, far coarser than the points themselves (the
 //!   bunny's level 5: 3,854 faces for 35,947 points, RMS 8.1e-4 of the diagonal). Past it, levels
-//!   are subdivided and mapped (§4.2) while the points-to-mesh RMS keeps falling by at least
-//!   [`ReconOptions::auto_min_gain`] (1.5x) per level, a level whose error does not is dropped,
-//!   and no level is built whose faces would exceed [`ReconOptions::auto_faces_per_point`] (3)
-//!   times the input points: past that the mesh has more vertices than the data has samples,
-//!   and the fit has nothing left to follow (the kitten's level 7, 9 faces per point, is 1.07x
-//!   closer than its level 6). At most 3 levels past the trusted one. [`Reconstruction::auto`]
-//!   says which level was chosen and why. Measured (RMS / diagonal): the bunny stops at level 7
-//!   (61,664 faces, 7.8e-5; level 8 would have 6.9 faces per point), Lucy at 8 (92,032, 4.0e-4),
-//!   the kitten at 6 (12,000, 1.9e-4).
+//!   are subdivided, mapped (§4.2) and fitted while the points-to-mesh RMS keeps falling by at
+//!   least [`ReconOptions::auto_min_gain`] (1.5x) per level; a level whose error does not is
+//!   dropped. No level is built with more faces than [`ReconOptions::auto_faces_per_point`] (3)
+//!   times the input points, nor than [`ReconOptions::auto_max_faces`] (400,000): past that the
+//!   mesh has more vertices than the data has samples, and the fit has nothing left to follow
+//!   (the kitten's level 7, 9 faces per point, is 1.07x closer than its level 6). At most 3
+//!   levels past the trusted one. [`Reconstruction::auto`] says which level was chosen and why.
+//!   Measured (RMS / diagonal): the bunny stops at level 7 (61,664 faces, 7.8e-5; level 8 would
+//!   have 6.9 faces per point), Lucy at 8 (92,032, 4.0e-4), the kitten at 6 (12,000, 1.9e-4),
+//!   the dragon at 8 (170,300).
 //! * **Gaps of sparse sheets (§4.2 with §3.5's holes)**: the paper keeps holes "where the data
 //!   has holes" and warns that below the sampling density the mesh fragments (Fig. 8(b)). A
 //!   trusted level can still be locally too sparse: on the dragon's thinly sampled underside the
@@ -285,6 +286,9 @@ pub struct ReconOptions {
     /// [`MaxLevel::Auto`] builds no level with more faces than this many per input point.
     /// Default 3.
     pub auto_faces_per_point: f64,
+    /// [`MaxLevel::Auto`] builds no level with more faces than this. Default 400,000: the
+    /// dragon (437,645 points) stops at level 8 (170,300 faces) rather than 9 (681,200).
+    pub auto_max_faces: usize,
     /// Levels with at most this many faces are tested for intersecting faces and repaired
     /// locally (module `untangle`: the vertices of intersecting faces move towards their
     /// neighbours' centroid until no pair is left; the connectivity is kept). Default 250,000:
@@ -337,6 +341,7 @@ impl Default for ReconOptions {
             fit_max_faces: 100_000,
             auto_min_gain: 1.5,
             auto_faces_per_point: 3.0,
+            auto_max_faces: 400_000,
             untangle_max_faces: 250_000,
             max_faces: 200_000_000,
             decoder_lines: None,
@@ -557,11 +562,14 @@ pub enum AutoStop {
         /// Its parent's RMS over its own.
         gain: f64,
     },
-    /// The next level would have `next_faces` faces, more than
-    /// [`ReconOptions::auto_faces_per_point`] times the points (or [`ReconOptions::max_faces`]).
+    /// The next level would have `next_faces` faces, more than `limit`:
+    /// [`ReconOptions::auto_faces_per_point`] times the points, [`ReconOptions::auto_max_faces`]
+    /// or [`ReconOptions::max_faces`], whichever is least.
     TooManyFaces {
         /// Faces of the next level.
         next_faces: u64,
+        /// The limit.
+        limit: u64,
     },
     /// The level is 3 past the trusted level, or the deepest supported.
     Deepest,

@@ -257,11 +257,15 @@ fn points_to_mesh_rms(points: &[DVec3], mesh: &octowrap_mesh::Mesh) -> f64 {
 fn the_fit_brings_every_level_closer_to_the_points_and_keeps_the_topology() {
     // A torus (curved both ways, so a coarse mesh between its mapped vertices cuts inside and
     // outside), to level 4.
+    // The repair of intersecting faces is off in both: it moves the vertices of folds, fitted
+    // or not, and this compares the fit alone.
     let pts = support::torus(30_000, 1.0, 0.35);
-    let mut off = opts(4);
+    let mut on = opts(4);
+    on.untangle_max_faces = 0;
+    let mut off = on.clone();
     off.fit_passes = 0;
     let (plain, plain_tops) = build("torus, no fit", &pts, &off);
-    let (fitted, fitted_tops) = build("torus, fit", &pts, &opts(4));
+    let (fitted, fitted_tops) = build("torus, fit", &pts, &on);
     let sample: Vec<DVec3> = pts.iter().step_by(10).copied().collect();
     let mut last = f64::INFINITY;
     for j in 1..=4 {

@@ -33,7 +33,8 @@ use crate::progress;
 /// it by subdivision, mapping the new vertices onto the points and fitting them, while each
 /// level brings the mesh at least 1.5x closer to the points (RMS distance; a level that does
 /// not is dropped) and before the mesh outgrows the data: no level with more than 3 faces per
-/// input point, at most 3 levels past the supported one (--auto-min-gain, --auto-faces-per-point).
+/// input point or 400,000 faces, at most 3 levels past the supported one (--auto-min-gain,
+/// --auto-faces-per-point, --auto-max-faces).
 /// The chosen level and the reason are printed on standard error. A number (--level N or
 /// --max-level N) builds exactly that many levels, subdividing past the supported one.
 /// --region-levels N goes up to N levels past that limit where some region is still dense: the
@@ -88,6 +89,9 @@ pub struct Args {
     /// --max-level auto builds no level with more faces than this many per input point.
     #[arg(long, value_name = "X", default_value_t = ReconOptions::default().auto_faces_per_point, value_parser = parse_density)]
     pub auto_faces_per_point: f64,
+    /// --max-level auto builds no level with more faces than this.
+    #[arg(long, value_name = "N", default_value_t = ReconOptions::default().auto_max_faces)]
+    pub auto_max_faces: usize,
     /// Write this level to a PLY/OBJ/OFF/STL output instead of the finest (0 = the root cube; at
     /// most the finest level asked for). An .mrq output holds every level.
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=i64::from(DEEPEST_LEVEL)))]
@@ -203,6 +207,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.region_density = args.region_density;
     opts.auto_min_gain = args.auto_min_gain;
     opts.auto_faces_per_point = args.auto_faces_per_point;
+    opts.auto_max_faces = args.auto_max_faces;
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
     }
@@ -381,10 +386,12 @@ fn auto_message(a: &AutoChoice, points: usize, opts: &ReconOptions) -> String {
             level - 1,
             opts.auto_min_gain
         ),
-        AutoStop::TooManyFaces { next_faces } => format!(
-            "level {} would have {next_faces} faces, more than {} per input point ({points} points)",
+        AutoStop::TooManyFaces { next_faces, limit } => format!(
+            "level {} would have {next_faces} faces, more than {limit} ({} per input point, {points} points; \
+             at most {})",
             a.level + 1,
-            opts.auto_faces_per_point
+            opts.auto_faces_per_point,
+            opts.auto_max_faces
         ),
         AutoStop::Deepest => "it is the deepest level auto builds".to_owned(),
     };
