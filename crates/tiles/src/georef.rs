@@ -27,8 +27,8 @@ use crate::Error;
 pub enum Frame {
     /// No CRS: the input's own coordinates, in its units, around a local origin.
     Local,
-    /// A CRS given as WKT: the tileset is placed on the globe.
-    Wkt(String),
+    /// A CRS given as OGC WKT or `EPSG:N`: the tileset is placed on the globe.
+    Crs(String),
 }
 
 /// A CRS with its local east-north-up frame.
@@ -54,12 +54,20 @@ fn crs_error(e: impl std::fmt::Display) -> Error {
 }
 
 impl Georeference {
-    /// Reads `wkt` and sets the local frame's origin at `origin` (a point in the CRS's
-    /// coordinates).
-    pub fn from_wkt(wkt: &str, origin: DVec3) -> Result<Self, Error> {
-        let proj_string = proj4wkt::wkt_to_projstring(wkt).map_err(|e| crs_error(format!("cannot read the WKT: {e:?}")))?;
-        let src = Proj::from_proj_string(&proj_string)
-            .map_err(|e| crs_error(format!("PROJ string '{proj_string}': {e}")))?;
+    /// Reads `crs` (OGC WKT, or `EPSG:N`) and sets the local frame's origin at `origin` (a point
+    /// in the CRS's coordinates).
+    pub fn from_crs(crs: &str, origin: DVec3) -> Result<Self, Error> {
+        let crs = crs.trim();
+        let (src, proj_string) = if crs.get(..5).is_some_and(|p| p.eq_ignore_ascii_case("EPSG:")) {
+            let src = Proj::from_user_string(crs).map_err(|e| crs_error(format!("{crs}: {e}")))?;
+            (src, crs.to_owned())
+        } else {
+            let proj_string =
+                proj4wkt::wkt_to_projstring(crs).map_err(|e| crs_error(format!("cannot read the WKT: {e:?}")))?;
+            let src = Proj::from_proj_string(&proj_string)
+                .map_err(|e| crs_error(format!("PROJ string '{proj_string}': {e}")))?;
+            (src, proj_string)
+        };
         let ecef = Proj::from_proj_string("+proj=geocent +datum=WGS84 +units=m +no_defs").map_err(crs_error)?;
         let z_to_meter = if (src.vto_meter() - 1.0).abs() < f64::EPSILON && !src.is_latlong() {
             src.to_meter()
@@ -131,7 +139,7 @@ mod tests {
     #[test]
     fn central_meridian_on_the_equator() {
         // (500000, 0) of UTM 10N is (lon -123, lat 0): ECEF (a cos(-123), a sin(-123), 0).
-        let g = Georeference::from_wkt(UTM10N, DVec3::new(500_000.0, 0.0, 0.0)).unwrap();
+        let g = Georeference::from_crs(UTM10N, DVec3::new(500_000.0, 0.0, 0.0)).unwrap();
         let a = 6_378_137.0;
         let lon = (-123.0f64).to_radians();
         let want = DVec3::new(a * lon.cos(), a * lon.sin(), 0.0);
@@ -148,8 +156,17 @@ mod tests {
     }
 
     #[test]
+    fn epsg_codes_are_known() {
+        let by_code = Georeference::from_crs("EPSG:32610", DVec3::new(500_000.0, 0.0, 0.0)).unwrap();
+        let by_wkt = Georeference::from_crs(UTM10N, DVec3::new(500_000.0, 0.0, 0.0)).unwrap();
+        let p = DVec3::new(512_345.0, 4_876_543.0, 80.0);
+        assert!(by_code.to_ecef(p).unwrap().distance(by_wkt.to_ecef(p).unwrap()) < 1e-3);
+        assert!(Georeference::from_crs("EPSG:1", DVec3::ZERO).is_err());
+    }
+
+    #[test]
     fn bad_wkt_is_an_error() {
-        assert!(matches!(Georeference::from_wkt("PROJCS[", DVec3::ZERO), Err(Error::Crs(_))));
-        assert!(matches!(Georeference::from_wkt("not a crs", DVec3::ZERO), Err(Error::Crs(_))));
+        assert!(matches!(Georeference::from_crs("PROJCS[", DVec3::ZERO), Err(Error::Crs(_))));
+        assert!(matches!(Georeference::from_crs("not a crs", DVec3::ZERO), Err(Error::Crs(_))));
     }
 }

@@ -36,8 +36,8 @@ fn place(h: &mut Hierarchy, frame: &Frame) -> Result<([f64; 16], String), Error>
             m[12..15].copy_from_slice(&origin.to_array());
             Ok((m, "local (no CRS): the input's own coordinates and units".to_owned()))
         }
-        Frame::Wkt(wkt) => {
-            let g = Georeference::from_wkt(wkt, origin)?;
+        Frame::Crs(wkt) => {
+            let g = Georeference::from_crs(wkt, origin)?;
             for l in &mut h.levels {
                 let moved: Result<Vec<DVec3>, Error> =
                     l.mesh.vertices.positions.par_iter().map(|&p| g.to_local(p)).collect();

@@ -8,6 +8,7 @@ pub mod info;
 pub mod input;
 pub mod mrq;
 pub mod reconstruct;
+pub mod tileset;
 pub mod validate;
 
 use std::process::ExitCode;

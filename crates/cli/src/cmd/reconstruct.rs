@@ -168,7 +168,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if args.wrap_sparse {
         opts.sparse = SparseMode::Wrap;
     }
-    let mesh = args.input_args.read(&args.input)?;
+    let (format, mesh) = args.input_args.read_detected(&args.input)?;
+    let crs = args.input_args.crs(&args.input, format)?;
     let points = mesh.vertices.positions;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.map_or(0, usize::from)).build()?;
     let bar = progress::bar(1, "partitioning");
@@ -195,6 +196,9 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
     let mut mrq_opts = args.mrq.options(false, &args.input);
+    if let Some(crs) = &crs {
+        mrq_opts.metadata.entries.push((octowrap_format::CRS_KEY.to_owned(), crs.to_text()));
+    }
     if args.mrq.bits.is_none() && args.mrq.step.is_none() && !args.mrq.exact {
         mrq_opts.quantization =
             Quantization::Bits(octowrap_format::reconstruction_grid_bits(r.hierarchy.levels.len() - 1));

@@ -106,12 +106,12 @@ fn tools() -> PathBuf {
     octowrap_testdata::workspace_root().join("tools/tiles-check")
 }
 
-/// Prints SKIPPED with `why`, or fails when `OCTOWRAP_EXPORT_CHECKS=required` (set by `.ci/run`
+/// Prints SKIPPED with `why`, or fails when `OCTOWRAP_TILES_CHECKS=required` (set by `.ci/run`
 /// when the tools are installed).
 pub fn skip_or_fail(what: &str, why: &str) {
     assert!(
-        std::env::var("OCTOWRAP_EXPORT_CHECKS").as_deref() != Ok("required"),
-        "{what} is required here (OCTOWRAP_EXPORT_CHECKS=required) but cannot run: {why}"
+        std::env::var("OCTOWRAP_TILES_CHECKS").as_deref() != Ok("required"),
+        "{what} is required here (OCTOWRAP_TILES_CHECKS=required) but cannot run: {why}"
     );
     println!("SKIPPED {what}: {why}");
 }
