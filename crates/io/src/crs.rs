@@ -1,7 +1,7 @@
 //! The coordinate reference system a point-cloud file declares, for georeferenced output.
 //!
 //! * LAS/LAZ/COPC (ASPRS LAS 1.4 R15, §2.5-2.6 and §2.8-2.9): the `LASF_Projection` records, in
-//!   VLRs or EVLRs: OGC WKT (record 2112) first; otherwise the GeoTIFF key directory (record
+//!   VLRs or EVLRs: OGC WKT (record 2112) first; otherwise the `GeoTIFF` key directory (record
 //!   34735), whose `ProjectedCSTypeGeoKey` (3072) or else `GeographicTypeGeoKey` (2048) names an
 //!   EPSG code (32767, user-defined, names none).
 //! * E57 (ASTM E2807, §8.4.3): the root's `coordinateMetadata` string, as the file gives it (WKT,
@@ -97,7 +97,10 @@ fn las_crs(d: &[u8]) -> Result<Option<Crs>> {
             }
             let start = usize::try_from(at).map_err(|_| short(235, "an EVLR"))?;
             let len = le64(d, start + 20).ok_or_else(|| short(start, "an EVLR header"))?;
-            let end = usize::try_from(len).ok().and_then(|l| (start + 60).checked_add(l)).ok_or_else(|| short(start, "an EVLR"))?;
+            let end = usize::try_from(len)
+                .ok()
+                .and_then(|l| (start + 60).checked_add(l))
+                .ok_or_else(|| short(start, "an EVLR"))?;
             let data = d.get(start + 60..end).ok_or_else(|| short(start, "an EVLR"))?;
             records.push(Record { user: &d[start + 2..start + 18], id: le16(d, start + 18).unwrap_or(0), data });
             at = end as u64;
@@ -116,7 +119,7 @@ fn las_crs(d: &[u8]) -> Result<Option<Crs>> {
     Ok(None)
 }
 
-/// The EPSG code of a GeoTIFF key directory: projected first, then geographic.
+/// The EPSG code of a `GeoTIFF` key directory: projected first, then geographic.
 fn geokey_epsg(d: &[u8]) -> Option<u16> {
     let keys = usize::from(le16(d, 6)?);
     let value = |wanted: u16| {

@@ -150,6 +150,7 @@ fn visit(tile: &Tile, at: &str, dir: &Path, parent: Option<(&Tile, Option<Obb>)>
             r.findings.push(format!("{at}: transform must be 16 finite numbers"));
             false
         }
+        #[allow(clippy::float_cmp)] // the affine row is exact by definition
         Some(m) if m[3] != 0.0 || m[7] != 0.0 || m[11] != 0.0 || m[15] != 1.0 => {
             r.findings.push(format!("{at}: transform's last row must be 0 0 0 1"));
             false
@@ -163,7 +164,8 @@ fn visit(tile: &Tile, at: &str, dir: &Path, parent: Option<(&Tile, Option<Obb>)>
             r.findings.push(format!("{at}: geometricError {e} exceeds its parent's {}", p.geometric_error));
         }
         if let (Some(pbox), Some(cbox), true) = (pbox, own, transform_ok) {
-            let outside = cbox.corners().map(|c| tile.transform.as_ref().map_or(c, |m| apply(m, c))).find(|&c| !pbox.holds(c));
+            let outside =
+                cbox.corners().map(|c| tile.transform.as_ref().map_or(c, |m| apply(m, c))).find(|&c| !pbox.holds(c));
             if let Some(c) = outside {
                 r.findings.push(format!("{at}: bounding box corner {c:?} lies outside the parent's box"));
             }
@@ -229,7 +231,7 @@ fn glb_problem(file: &Path) -> Option<String> {
         return Some(format!("is GLB version {version}, not 2"));
     }
     let declared = u64::from(u32::from_le_bytes([head[8], head[9], head[10], head[11]]));
-    let actual = std::fs::metadata(file).map(|m| m.len()).unwrap_or(0);
+    let actual = std::fs::metadata(file).map_or(0, |m| m.len());
     (declared != actual).then(|| format!("declares {declared} bytes but has {actual}"))
 }
 

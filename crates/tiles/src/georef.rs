@@ -45,7 +45,10 @@ pub struct Georeference {
 
 impl std::fmt::Debug for Georeference {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Georeference").field("proj_string", &self.proj_string).field("origin_ecef", &self.origin_ecef).finish()
+        f.debug_struct("Georeference")
+            .field("proj_string", &self.proj_string)
+            .field("origin_ecef", &self.origin_ecef)
+            .finish_non_exhaustive()
     }
 }
 
@@ -69,12 +72,10 @@ impl Georeference {
             (src, proj_string)
         };
         let ecef = Proj::from_proj_string("+proj=geocent +datum=WGS84 +units=m +no_defs").map_err(crs_error)?;
-        let z_to_meter = if (src.vto_meter() - 1.0).abs() < f64::EPSILON && !src.is_latlong() {
-            src.to_meter()
-        } else {
-            1.0
-        };
-        let mut g = Self { src, ecef, z_to_meter, origin_ecef: DVec3::ZERO, enu: [DVec3::X, DVec3::Y, DVec3::Z], proj_string };
+        let z_to_meter =
+            if (src.vto_meter() - 1.0).abs() < f64::EPSILON && !src.is_latlong() { src.to_meter() } else { 1.0 };
+        let mut g =
+            Self { src, ecef, z_to_meter, origin_ecef: DVec3::ZERO, enu: [DVec3::X, DVec3::Y, DVec3::Z], proj_string };
         let o = g.to_ecef(origin)?;
         let (lon, lat) = (o.y.atan2(o.x), geodetic_latitude(o));
         let east = DVec3::new(-lon.sin(), lon.cos(), 0.0);
@@ -92,7 +93,11 @@ impl Georeference {
         proj4rs::transform::transform(&self.src, &self.ecef, &mut q)
             .map_err(|e| crs_error(format!("cannot convert ({}, {}, {}): {e}", p.x, p.y, p.z)))?;
         let out = DVec3::new(q.0, q.1, q.2);
-        if out.is_finite() { Ok(out) } else { Err(crs_error(format!("({}, {}, {}) has no ECEF position", p.x, p.y, p.z))) }
+        if out.is_finite() {
+            Ok(out)
+        } else {
+            Err(crs_error(format!("({}, {}, {}) has no ECEF position", p.x, p.y, p.z)))
+        }
     }
 
     /// The point in the local east-north-up frame (metres from the origin).

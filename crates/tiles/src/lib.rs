@@ -1,5 +1,5 @@
 //! OGC 3D Tiles 1.1 export of octowrap hierarchies: a `tileset.json` and one binary glTF (`.glb`)
-//! per tile, for CesiumJS, 3DTilesRendererJS and other 3D Tiles clients.
+//! per tile, for `CesiumJS`, `3DTilesRendererJS` and other 3D Tiles clients.
 //!
 //! Written against the OGC 3D Tiles 1.1 specification (OGC 22-025r4): tileset JSON (§6.7), tiles,
 //! bounding volumes, geometric error and `REPLACE` refinement (§6.4-6.6), glTF content (§7.8).

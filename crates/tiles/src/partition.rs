@@ -52,7 +52,10 @@ impl Cell {
     #[must_use]
     pub fn child(self, octant: u8) -> Self {
         let bit = |k: u8| u32::from((octant >> k) & 1);
-        Self { depth: self.depth + 1, xyz: [self.xyz[0] * 2 + bit(0), self.xyz[1] * 2 + bit(1), self.xyz[2] * 2 + bit(2)] }
+        Self {
+            depth: self.depth + 1,
+            xyz: [self.xyz[0] * 2 + bit(0), self.xyz[1] * 2 + bit(1), self.xyz[2] * 2 + bit(2)],
+        }
     }
 
     /// The cell's box inside `cube`.
@@ -118,6 +121,7 @@ fn centroid(mesh: &Mesh, face: &[u32]) -> DVec3 {
 const MAX_DEPTH: usize = 20;
 
 impl Partition for OctreePartition {
+    #[allow(clippy::too_many_lines, clippy::needless_range_loop)] // one pass per step, in order
     fn tiles(&self, h: &Hierarchy) -> Result<TileTree, Error> {
         if h.levels.is_empty() {
             return Err(Error::invalid("the hierarchy has no levels"));
@@ -165,8 +169,9 @@ impl Partition for OctreePartition {
                             FaceOrigin::Subface { parent, .. } => {
                                 let pc = parent_cells[parent as usize];
                                 let mid = pc.bounds(&cube).center();
-                                let octant =
-                                    u8::from(c.x >= mid.x) | (u8::from(c.y >= mid.y) << 1) | (u8::from(c.z >= mid.z) << 2);
+                                let octant = u8::from(c.x >= mid.x)
+                                    | (u8::from(c.y >= mid.y) << 1)
+                                    | (u8::from(c.z >= mid.z) << 2);
                                 pc.child(octant)
                             }
                             FaceOrigin::Created => {
@@ -201,8 +206,10 @@ impl Partition for OctreePartition {
         all.sort_unstable();
         all.dedup();
         let index = |k: usize, c: Cell| all.binary_search(&(k, c)).expect("every tile's parent was added");
-        let mut nodes: Vec<TileNode> =
-            all.iter().map(|&(level, cell)| TileNode { level, cell, faces: Vec::new(), children: Vec::new() }).collect();
+        let mut nodes: Vec<TileNode> = all
+            .iter()
+            .map(|&(level, cell)| TileNode { level, cell, faces: Vec::new(), children: Vec::new() })
+            .collect();
         for (k, of_level) in cells.iter().enumerate() {
             for (f, &c) in of_level.iter().enumerate() {
                 nodes[index(k, c)].faces.push(f as u32);

@@ -129,9 +129,6 @@ impl BoundingVolume {
     pub fn aligned_box(min: [f64; 3], max: [f64; 3]) -> Self {
         let c = [0, 1, 2].map(|k| (min[k] + max[k]) * 0.5);
         let h = [0, 1, 2].map(|k| (max[k] - min[k]) * 0.5);
-        Self {
-            bbox: Some(vec![c[0], c[1], c[2], h[0], 0.0, 0.0, 0.0, h[1], 0.0, 0.0, 0.0, h[2]]),
-            ..Self::default()
-        }
+        Self { bbox: Some(vec![c[0], c[1], c[2], h[0], 0.0, 0.0, 0.0, h[1], 0.0, 0.0, 0.0, h[2]]), ..Self::default() }
     }
 }

@@ -58,7 +58,13 @@ struct Made {
     bytes: u64,
 }
 
-pub(crate) fn write_tileset(path: &Path, mut h: Hierarchy, frame: &Frame, opts: &TilesOptions) -> Result<Summary, Error> {
+#[allow(clippy::too_many_lines)] // the export's steps in order
+pub(crate) fn write_tileset(
+    path: &Path,
+    mut h: Hierarchy,
+    frame: &Frame,
+    opts: &TilesOptions,
+) -> Result<Summary, Error> {
     let name = path.display().to_string();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -151,14 +157,14 @@ pub(crate) fn write_tileset(path: &Path, mut h: Hierarchy, frame: &Frame, opts: 
         asset: Asset {
             version: "1.1".to_owned(),
             generator: Some(format!("octowrap {}", env!("CARGO_PKG_VERSION"))),
-            other: Default::default(),
+            other: std::collections::BTreeMap::default(),
         },
         geometric_error: made[0].error.max(diagonal),
         root,
         extensions_used: Vec::new(),
         extensions_required: Vec::new(),
         extras: Some(serde_json::Value::Object(extras)),
-        other: Default::default(),
+        other: std::collections::BTreeMap::default(),
     };
     let json = serde_json::to_vec_pretty(&tileset).expect("the tileset holds only strings, numbers and maps");
     octowrap_fsutil::write_file(path, &file_opts, |w| w.write_all(&json))
@@ -189,9 +195,9 @@ fn tile_json(tree: &TileTree, made: &[Made], i: usize) -> Tile {
         refine: None,
         transform: None,
         content: (!tree.nodes[i].faces.is_empty())
-            .then(|| Content { uri: content_uri(tree, i), other: Default::default() }),
+            .then(|| Content { uri: content_uri(tree, i), other: std::collections::BTreeMap::default() }),
         implicit_tiling: None,
         children: tree.nodes[i].children.iter().map(|&c| tile_json(tree, made, c)).collect(),
-        other: Default::default(),
+        other: std::collections::BTreeMap::default(),
     }
 }

@@ -87,9 +87,7 @@ pub fn glb_triangles(file: &Path) -> Vec<[DVec3; 3]> {
                 .read_positions()
                 .unwrap()
                 .map(|p| {
-                    let p = [0, 1, 2].map(|r| {
-                        m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]
-                    });
+                    let p = [0, 1, 2].map(|r| m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]);
                     DVec3::new(f64::from(p[0]), -f64::from(p[2]), f64::from(p[1]))
                 })
                 .collect();
