@@ -43,6 +43,7 @@ fn all_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
 }
 
 #[test]
+#[allow(clippy::items_after_statements)]
 fn synthetic_tileset_passes_the_spec_checks_and_is_deterministic() {
     let h = cube_hierarchy(6, Edits::default(), 7);
     let dir = tempfile::tempdir().unwrap();

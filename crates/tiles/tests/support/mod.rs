@@ -111,7 +111,10 @@ pub fn skip_or_fail(what: &str, why: &str) {
         std::env::var("OCTOWRAP_TILES_CHECKS").as_deref() != Ok("required"),
         "{what} is required here (OCTOWRAP_TILES_CHECKS=required) but cannot run: {why}"
     );
-    println!("SKIPPED {what}: {why}");
+    #[allow(clippy::print_stdout)] // the SKIPPED line the test policy asks for
+    {
+        println!("SKIPPED {what}: {why}");
+    }
 }
 
 /// Runs the Khronos glTF-Validator on every content of a tileset: 0 errors and 0 warnings.
