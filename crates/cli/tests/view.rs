@@ -6,7 +6,7 @@
 //!
 //! The browser check needs node, `npm ci` in tools/viewer, Chromium and a binary built with the
 //! viewer's files (tools/viewer/build-wasm.sh before building octowrap); where they are missing it
-//! prints SKIPPED, unless `OCTOWRAP_EXPORT_CHECKS=required` (`.ci/run`). Screenshots and the
+//! prints SKIPPED, unless `OCTOWRAP_VIEW_CHECKS=required` (`.ci/run`). Screenshots and the
 //! JSON result land in `target/export-artefacts/`.
 #![allow(clippy::print_stderr)]
 
@@ -190,8 +190,8 @@ fn the_viewer_streams_a_reconstructed_dragon() {
     let info = octowrap_format::read_info(&bytes[..], &octowrap_format::Limits::default()).unwrap();
     let server = Server::start(&mrq);
     if let Some(why) = browser_missing(&server) {
-        if std::env::var("OCTOWRAP_EXPORT_CHECKS").as_deref() == Ok("required") {
-            panic!("the MRQ viewer check is required here (OCTOWRAP_EXPORT_CHECKS=required) but cannot run: {why}");
+        if std::env::var("OCTOWRAP_VIEW_CHECKS").as_deref() == Ok("required") {
+            panic!("the MRQ viewer check is required here (OCTOWRAP_VIEW_CHECKS=required) but cannot run: {why}");
         }
         eprintln!("SKIPPED MRQ viewer in headless Chromium: {why}");
         return;

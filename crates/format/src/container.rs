@@ -89,6 +89,10 @@ pub struct Metadata {
     pub entries: Vec<(String, String)>,
 }
 
+/// The [`Metadata::entries`] key holding the coordinate reference system of the positions: OGC
+/// WKT, or `EPSG:N`. Without it, positions are in a local frame.
+pub const CRS_KEY: &str = "crs";
+
 fn config() -> impl bincode::config::Config {
     // The limit bounds what a hostile length prefix can make bincode allocate.
     bincode::config::standard().with_little_endian().with_fixed_int_encoding().with_limit::<{ 1 << 26 }>()

@@ -104,7 +104,7 @@ use std::path::Path;
 
 use octowrap_mesh::{DVec3, Hierarchy};
 
-pub use container::{FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo};
+pub use container::{CRS_KEY, FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo};
 pub use decoder::{decode, decode_bytes, read_info};
 pub use encoder::{encode, encode_to, encode_with_stats};
 pub use error::{DecodeError, EncodeError, Where};

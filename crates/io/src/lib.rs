@@ -49,6 +49,7 @@ mod source;
 mod text;
 
 mod conf;
+mod crs;
 mod e57;
 mod exr;
 mod las;
@@ -62,6 +63,7 @@ mod xyz;
 use std::io::{Read, Write};
 use std::path::Path;
 
+pub use crs::{Crs, read_crs};
 pub use error::{Error, ErrorKind, Location, Result};
 pub use octowrap_mesh::Mesh;
 

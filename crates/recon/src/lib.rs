@@ -291,9 +291,10 @@ pub struct ReconOptions {
     pub auto_max_faces: usize,
     /// Levels with at most this many faces are tested for intersecting faces and repaired
     /// locally (module `untangle`: the vertices of intersecting faces move towards their
-    /// neighbours' centroid until no pair is left; the connectivity is kept). Default 250,000:
-    /// the test costs about as much as the fit per face; the 4.3 M-point scan's levels 9-10
-    /// (550,000 and 2.2 M faces) are left as built.
+    /// neighbours' centroid until no pair is left; the connectivity is kept). Default 0 (off):
+    /// the repair clears every pair of the bunny's levels 1-7 but smooths Lucy's finest level to
+    /// 3x its points-to-mesh RMS, so it runs only when asked (250,000 tests the levels up to
+    /// the dragon's; the test costs about as much as the fit per face).
     pub untangle_max_faces: usize,
     /// Compute every refined vertex that has a line in the MRQ decoder's prediction (spec §6.8)
     /// as one scalar along that line (normal-mesh geometry, module `lines`): the file written
@@ -342,7 +343,7 @@ impl Default for ReconOptions {
             auto_min_gain: 1.5,
             auto_faces_per_point: 3.0,
             auto_max_faces: 400_000,
-            untangle_max_faces: 250_000,
+            untangle_max_faces: 0,
             max_faces: 200_000_000,
             decoder_lines: None,
             line_reach: 0.1,

@@ -29,6 +29,14 @@ use crate::progress;
 /// (KHR_mesh_quantization, then required); --meshopt compresses every buffer with meshoptimizer
 /// (EXT_meshopt_compression, then required). The same input and options give the same bytes.
 ///
+/// An output ending in .json writes an OGC 3D Tiles 1.1 tileset instead: that tileset.json and
+/// one .glb per tile under tiles/ beside it (a tile is one level's faces in one octree cell;
+/// refine REPLACE; each tile's geometric error the certified Hausdorff distance to the finest
+/// level over its region; a flange of neighbouring faces against cracks). An MRQ file that
+/// records a CRS (reconstruct keeps the one a LAS/LAZ/E57 input declares) is placed on the globe
+/// (EPSG:4978); otherwise the tileset is in a local frame. --quantize and --meshopt apply to the
+/// tiles. A mesh input becomes one tile.
+///
 /// Exit codes: 0 written; 2 the input could not be read or exported (nothing is written then).
 ///
 /// Examples:
@@ -36,14 +44,15 @@ use crate::progress;
 ///   octowrap export dragon.mrq -o dragon-l6.glb --level 6 --meshopt --quantize
 ///   octowrap export part.stl -o part.gltf --crease-angle 30
 ///   octowrap export bunny.ply -o bunny.glb --no-colors
+///   octowrap export autzen.mrq -o tiles/tileset.json --meshopt --quantize
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 #[allow(clippy::doc_markdown)] // the help text names glTF extensions, not Rust items
 pub struct Args {
     /// Input: an MRQ file or any mesh (PLY, OBJ, OFF, STL, ...; `-` for standard input with --from).
     pub input: PathBuf,
-    /// Output file: .glb (binary glTF; .glb.gz gzip-compressed) or .gltf (JSON, with OUT's stem
-    /// .bin beside it).
+    /// Output file: .glb (binary glTF; .glb.gz gzip-compressed), .gltf (JSON, with OUT's stem
+    /// .bin beside it), or .json (a 3D Tiles tileset, its tiles in a tiles/ folder beside it).
     #[arg(long, short = 'o', value_name = "OUT")]
     pub output: PathBuf,
     /// Which levels of an MRQ file: `all` writes every level as an MSFT_lod chain; `finest` (the
@@ -104,6 +113,9 @@ pub enum WhichLevels {
 
 /// Runs the command.
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    if super::tileset::is_tileset(args) {
+        return super::tileset::run(args);
+    }
     let gz = octowrap_fsutil::is_gz(&args.output);
     let container = octowrap_export::Container::from_path(&octowrap_fsutil::without_gz(&args.output));
     let Some(container) = container else {

@@ -53,6 +53,16 @@ impl InputArgs {
         Ok(read?)
     }
 
+    /// The CRS `path` declares (LAS/LAZ/COPC or E57 read as `format`); `None` for standard
+    /// input and for formats without one.
+    pub fn crs(&self, path: &Path, format: Format) -> anyhow::Result<Option<octowrap_io::Crs>> {
+        if path == Path::new("-") || !matches!(format, Format::Las | Format::E57) {
+            return Ok(None);
+        }
+        let data = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        octowrap_io::read_crs(&data, format).with_context(|| format!("reading the CRS of {}", path.display()))
+    }
+
     /// Reads `path` as a mesh that can be processed and written: every face index in range and
     /// every face of 3 or more corners. (The readers keep broken faces, so that `validate` can
     /// describe them; every other command refuses them here, naming the input.)

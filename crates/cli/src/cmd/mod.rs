@@ -9,6 +9,7 @@ pub mod input;
 pub mod mrq;
 pub mod reconstruct;
 pub mod tile;
+pub mod tileset;
 pub mod validate;
 pub mod view;
 

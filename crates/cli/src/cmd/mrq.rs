@@ -210,6 +210,9 @@ impl Report {
         for (k, v) in &m.entries {
             writeln!(w, "  {k:<11} {v}")?;
         }
+        if !m.entries.iter().any(|(k, _)| k == octowrap_format::CRS_KEY) {
+            writeln!(w, "  frame       local (no CRS): a tileset of it is not placed on the globe")?;
+        }
         writeln!(w, "  level     vertices        faces        bytes   bits/vertex")?;
         for (k, l) in i.levels.iter().enumerate() {
             let bpv = if l.vertex_count > 0 { l.stored_size as f64 * 8.0 / f64::from(l.vertex_count) } else { 0.0 };

@@ -1,0 +1,203 @@
+//! The writer: frame, partition, errors, contents, then `tileset.json`.
+
+use std::path::{Path, PathBuf};
+
+use octowrap_geom::{Aabb, DVec3};
+use octowrap_mesh::Hierarchy;
+use rayon::prelude::*;
+
+use crate::content::{LevelGeometry, subset};
+use crate::georef::{Frame, Georeference};
+use crate::partition::{Partition, TileTree};
+use crate::tileset::{Asset, BoundingVolume, Content, Tile, Tileset};
+use crate::{Error, Summary, TilesOptions};
+
+/// Moves every position into the tileset's local frame; returns the root transform (column-major)
+/// and a description of the frame.
+fn place(h: &mut Hierarchy, frame: &Frame) -> Result<([f64; 16], String), Error> {
+    let mut b = Aabb::EMPTY;
+    for l in &h.levels {
+        for p in &l.mesh.vertices.positions {
+            b.grow(*p);
+        }
+    }
+    let origin = if b.is_empty() { DVec3::ZERO } else { b.center() };
+    match frame {
+        Frame::Local => {
+            for l in &mut h.levels {
+                l.mesh.vertices.positions.par_iter_mut().for_each(|p| *p -= origin);
+            }
+            h.cube = h.cube.map(|c| Aabb { min: c.min - origin, max: c.max - origin });
+            let mut m = [0.0; 16];
+            m[0] = 1.0;
+            m[5] = 1.0;
+            m[10] = 1.0;
+            m[15] = 1.0;
+            m[12..15].copy_from_slice(&origin.to_array());
+            Ok((m, "local (no CRS): the input's own coordinates and units".to_owned()))
+        }
+        Frame::Crs(wkt) => {
+            let g = Georeference::from_crs(wkt, origin)?;
+            for l in &mut h.levels {
+                let moved: Result<Vec<DVec3>, Error> =
+                    l.mesh.vertices.positions.par_iter().map(|&p| g.to_local(p)).collect();
+                l.mesh.vertices.positions = moved?;
+            }
+            // The octree cube of the CRS's coordinates is not a cube of the local frame.
+            h.cube = None;
+            Ok((g.world_from_local(), format!("EPSG:4978 from {}", g.proj_string)))
+        }
+    }
+}
+
+/// What one tile became.
+#[derive(Clone, Copy)]
+struct Made {
+    error: f64,
+    bounds: Aabb,
+    bytes: u64,
+}
+
+#[allow(clippy::too_many_lines)] // the export's steps in order
+pub(crate) fn write_tileset(
+    path: &Path,
+    mut h: Hierarchy,
+    frame: &Frame,
+    opts: &TilesOptions,
+) -> Result<Summary, Error> {
+    let name = path.display().to_string();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let file_opts = octowrap_fsutil::WriteOptions::no_clobber(opts.no_clobber);
+    octowrap_fsutil::check_output(path, &file_opts).map_err(|e| Error::io(&name, e))?;
+    let (world_from_local, frame_text) = place(&mut h, frame)?;
+    let tree = opts.partition.tiles(&h)?;
+    let finest = h.levels.len() - 1;
+    let mut export = octowrap_export::ExportOptions::default();
+    export.quantize = opts.quantize;
+    export.meshopt = opts.meshopt;
+    export.colors = opts.colors;
+    let mut made: Vec<Option<Made>> = vec![None; tree.nodes.len()];
+    for (k, level) in h.levels.iter().enumerate() {
+        let ids: Vec<usize> = (0..tree.nodes.len()).filter(|&i| tree.nodes[i].level == k).collect();
+        let mut tile_of = vec![u32::MAX; level.mesh.faces.len()];
+        for &i in &ids {
+            for &f in &tree.nodes[i].faces {
+                tile_of[f as usize] = i as u32;
+            }
+        }
+        let geometry = LevelGeometry::new(&level.mesh);
+        let finest_mesh = &h.levels[finest].mesh;
+        let errors: Vec<f64> = ids
+            .par_iter()
+            .map(|&i| {
+                let node = &tree.nodes[i];
+                if k == finest || node.faces.is_empty() {
+                    return 0.0;
+                }
+                let d = octowrap_decimate::metrics::certified_hausdorff(
+                    &subset(&level.mesh, &node.faces),
+                    &subset(finest_mesh, &tree.regions[i]),
+                );
+                if d.upper.is_finite() { d.upper } else { 0.0 }
+            })
+            .collect();
+        let push_back = errors.iter().copied().fold(0.0, f64::max);
+        let written: Result<Vec<Made>, Error> = ids
+            .par_iter()
+            .zip(&errors)
+            .map(|(&i, &error)| {
+                let node = &tree.nodes[i];
+                if node.faces.is_empty() {
+                    return Ok(Made { error, bounds: Aabb::EMPTY, bytes: 0 });
+                }
+                let flange = if opts.flange { geometry.flange(&node.faces, &tile_of, i as u32) } else { Vec::new() };
+                let mesh = geometry.content(&node.faces, &flange, push_back);
+                let bounds = Aabb::from_points(
+                    mesh.vertices.positions.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect::<Vec<_>>().iter(),
+                );
+                let (glb, _) = octowrap_export::to_glb(&Hierarchy::single(mesh), &export)?;
+                let file = dir.join(content_uri(&tree, i));
+                let shown = file.display().to_string();
+                if let Some(parent) = file.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
+                }
+                octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&glb))
+                    .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| {
+                        Error::io(&shown, e)
+                    })?;
+                Ok(Made { error, bounds, bytes: glb.len() as u64 })
+            })
+            .collect();
+        for (&i, m) in ids.iter().zip(written?) {
+            made[i] = Some(m);
+        }
+    }
+    let mut made: Vec<Made> = made.into_iter().map(|m| m.expect("every level was written")).collect();
+    // Children after parents: walking backwards settles every child before its parent.
+    for i in (0..tree.nodes.len()).rev() {
+        for &c in &tree.nodes[i].children {
+            let child = made[c];
+            made[i].error = made[i].error.max(child.error);
+            made[i].bounds = made[i].bounds.union(&child.bounds);
+        }
+    }
+    let mut root = tile_json(&tree, &made, 0);
+    root.refine = Some("REPLACE".to_owned());
+    root.transform = Some(world_from_local.to_vec());
+    let diagonal = made[0].bounds.diagonal();
+    let mut extras = serde_json::Map::new();
+    extras.insert("frame".to_owned(), frame_text.clone().into());
+    for (k, v) in &opts.metadata {
+        extras.insert(k.clone(), v.clone().into());
+    }
+    let tileset = Tileset {
+        asset: Asset {
+            version: "1.1".to_owned(),
+            generator: Some(format!("octowrap {}", env!("CARGO_PKG_VERSION"))),
+            other: std::collections::BTreeMap::default(),
+        },
+        geometric_error: made[0].error.max(diagonal),
+        root,
+        extensions_used: Vec::new(),
+        extensions_required: Vec::new(),
+        extras: Some(serde_json::Value::Object(extras)),
+        other: std::collections::BTreeMap::default(),
+    };
+    let json = serde_json::to_vec_pretty(&tileset).expect("the tileset holds only strings, numbers and maps");
+    octowrap_fsutil::write_file(path, &file_opts, |w| w.write_all(&json))
+        .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| Error::io(&name, e))?;
+    Ok(Summary {
+        tiles: tree.nodes.len(),
+        content_tiles: tree.nodes.iter().filter(|n| !n.faces.is_empty()).count(),
+        levels: h.levels.len(),
+        bytes: made.iter().map(|m| m.bytes).sum::<u64>() + json.len() as u64,
+        root_error: made[0].error,
+        frame: frame_text,
+    })
+}
+
+/// `tiles/LEVEL/DEPTH-X-Y-Z.glb`.
+fn content_uri(tree: &TileTree, i: usize) -> String {
+    let n = &tree.nodes[i];
+    let [x, y, z] = n.cell.xyz;
+    format!("tiles/{}/{}-{x}-{y}-{z}.glb", n.level, n.cell.depth)
+}
+
+fn tile_json(tree: &TileTree, made: &[Made], i: usize) -> Tile {
+    let m = made[i];
+    let b = if m.bounds.is_empty() { Aabb { min: DVec3::ZERO, max: DVec3::ZERO } } else { m.bounds };
+    Tile {
+        bounding_volume: BoundingVolume::aligned_box(b.min.to_array(), b.max.to_array()),
+        geometric_error: m.error,
+        refine: None,
+        transform: None,
+        content: (!tree.nodes[i].faces.is_empty())
+            .then(|| Content { uri: content_uri(tree, i), other: std::collections::BTreeMap::default() }),
+        implicit_tiling: None,
+        children: tree.nodes[i].children.iter().map(|&c| tile_json(tree, made, c)).collect(),
+        other: std::collections::BTreeMap::default(),
+    }
+}
