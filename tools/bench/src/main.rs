@@ -52,7 +52,7 @@ fn main() -> std::process::ExitCode {
     println!();
     println!("{}", util::machine_line());
     println!();
-    let sections: [(&str, fn()); 6] = [
+    let sections: [(&str, fn()); 7] = [
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),

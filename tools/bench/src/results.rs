@@ -14,7 +14,7 @@ use std::process::Command;
 use crate::util::{Capture, Headline};
 
 /// The areas in page order: key (the section name on the command line) and title.
-pub const AREAS: [(&str, &str); 6] = [
+pub const AREAS: [(&str, &str); 7] = [
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
