@@ -55,11 +55,21 @@ async function stream(url, budget, stats) {
       failure = err;
       inflight = null;
     }
-    const k = s.readyLevel();
+    let k = s.readyLevel();
     if (k !== undefined && k > shown) {
-      shown = k;
       const t0 = performance.now();
-      const m = s.decode(k);
+      let m = null;
+      try {
+        m = s.decode(k);
+      } catch (err) {
+        // A damaged level: show the finest intact level above it, then report the damage.
+        failure = failure ?? err;
+        for (k -= 1; k > shown && m === null; ) {
+          try { m = s.decode(k); } catch { k -= 1; }
+        }
+        if (m === null) throw failure;
+      }
+      shown = k;
       const positions = m.takePositions();
       const indices = m.takeTriangles();
       const msg = {

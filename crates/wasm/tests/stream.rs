@@ -43,7 +43,14 @@ fn drive(s: &mut Stream, served: &[u8]) -> (Vec<Range<u64>>, Vec<u32>, Option<St
                     assert_eq!(m.level, k);
                     levels.push(k);
                 }
-                Err(e) => return (ranges, levels, Some(e)),
+                Err(e) => {
+                    // As the worker does: show the finest intact level above the damage, then stop.
+                    let shown = levels.last().map_or(0, |&l| l + 1);
+                    if let Some(j) = (shown..k).rev().find(|&j| s.decode(j).is_ok()) {
+                        levels.push(j);
+                    }
+                    return (ranges, levels, Some(e));
+                }
             }
         }
     }
