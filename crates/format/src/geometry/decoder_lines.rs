@@ -274,19 +274,13 @@ pub(crate) fn fast_topo<'a>(
     contexts: &'a Contexts,
     (k, bits, predictor, line_shift): (u32, u32, u8, u32),
 ) -> FastTopo<'a> {
-    let level = &enc.level;
-    FastTopo {
-        level: k,
-        bits,
-        indices: &level.indices,
-        slots: level.slots.as_deref().unwrap_or_default(),
-        vertex_corners: level.corners.as_deref().unwrap_or_default(),
+    crate::geometry::residuals::level_topo(
+        &enc.level,
         contexts,
-        parent_quads: &enc.parent_quads,
-        lines: true,
-        line_shift,
-        predictor,
-    }
+        &enc.parent_quads,
+        (k, bits),
+        (predictor, line_shift, true),
+    )
 }
 
 #[cfg(test)]

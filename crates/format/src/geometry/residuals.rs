@@ -169,7 +169,7 @@ pub fn choose_geometry(
 }
 
 /// The mode 3 prediction inputs (spec §6.8) of a canonical level.
-fn level_topo<'a>(
+pub(crate) fn level_topo<'a>(
     level: &'a PlainLevel,
     contexts: &'a fast::Contexts,
     quads: &'a [([u32; 4], u8)],
