@@ -209,9 +209,11 @@ impl std::fmt::Display for Format {
     }
 }
 
+/// `name` without a trailing `.gz` (any case). Compared as bytes: a name ending in a multibyte
+/// character has no character boundary three bytes from its end.
 fn strip_gz(name: &str) -> &str {
     let n = name.len();
-    if n > 3 && name[n - 3..].eq_ignore_ascii_case(".gz") { &name[..n - 3] } else { name }
+    if n > 3 && name.as_bytes()[n - 3..].eq_ignore_ascii_case(b".gz") { &name[..n - 3] } else { name }
 }
 
 /// Caps on what a reader will allocate, checked before allocating. Every reader also refuses any
@@ -522,6 +524,12 @@ mod tests {
         assert_eq!(Format::from_path(Path::new("x.laz")), Some(Format::Las));
         assert_eq!(Format::from_path(Path::new("x.gz")), None);
         assert_eq!(Format::from_path(Path::new("noext")), None);
+        // Names ending in a multibyte character (no char boundary three bytes from the end).
+        assert_eq!(Format::from_path(Path::new("scan\u{e9}")), None);
+        assert_eq!(Format::from_path(Path::new("\u{1F600}")), None);
+        assert_eq!(Format::from_path(Path::new("caf\u{e9}.ply")), Some(Format::Ply));
+        assert_eq!(strip_gz("\u{e9}\u{e9}"), "\u{e9}\u{e9}");
+        assert_eq!(strip_gz("a.GZ"), "a");
     }
 
     #[test]
