@@ -151,14 +151,21 @@ pub(crate) fn subdivide(quads: &[[u32; 4]], corners: &[[u32; 3]], slots: &[u64],
         }
     });
     drop(edge_vertex);
+    // Child `k`'s voxel is the parent voxel's child at the parent's corner `k`: the corner's
+    // in-plane offset from the voxel, read from its lattice corner (a subdivided parent's quads
+    // start at any of their slot's corners, so `k` is not the slot's corner `k`).
     let mut slots_out: Vec<u64> = vec![0; 4 * slots.len()];
-    slots_out.par_chunks_mut(4).zip(slots.par_iter()).for_each(|(out, &s)| {
+    slots_out.par_chunks_mut(4).zip(slots.par_iter().zip(quads.par_iter())).for_each(|(out, (&s, q))| {
         let (code, d) = unslot(s);
         let pc = morton::decode(code);
         let a = axis(d);
         let (b, cax) = plane_axes(a);
         for (k, o) in out.iter_mut().enumerate() {
-            let off = corner_offset(d, k);
+            let at = corners[q[k] as usize];
+            let off = match (at[b].checked_sub(pc[b]), at[cax].checked_sub(pc[cax])) {
+                (Some(ob @ 0..=1), Some(oc @ 0..=1)) => [ob, oc],
+                _ => corner_offset(d, k),
+            };
             let mut child = pc.map(|x| 2 * x);
             child[b] += off[0];
             child[cax] += off[1];

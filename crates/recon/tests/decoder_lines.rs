@@ -83,3 +83,19 @@ fn a_bad_grid_is_an_error() {
     let e = reconstruct_with_progress(&sphere(5_000), &o, &mut |_| {}).unwrap_err();
     assert!(e.to_string().contains("decoder lines"), "{e}");
 }
+
+/// Levels past the density-supported one are subdivided, and a subdivided level's quads start at
+/// any corner of their voxel: a level subdivided from a subdivided parent still finds lines for
+/// most of its vertices (the finest level is most of the file).
+#[test]
+fn subdivided_levels_keep_their_lines() {
+    let mut o = ReconOptions::default();
+    o.max_level = MaxLevel::Level(6);
+    o.decoder_lines = Some(DecoderGrid::Finest);
+    let r = reconstruct_with_progress(&sphere(3_000), &o, &mut |_| {}).unwrap();
+    let trusted = r.trusted_level as usize;
+    assert!(trusted + 2 <= 6, "the sphere is dense enough for level {trusted}: no subdivided parent");
+    for (k, l) in r.levels.iter().enumerate().skip(trusted + 2) {
+        assert!(l.on_lines * 2 > l.vertices, "level {k} (trusted {trusted}): {} of {} vertices on lines", l.on_lines, l.vertices);
+    }
+}
