@@ -117,6 +117,25 @@ pub(crate) fn fit(
     (passes, samples): (u32, u32),
     dirs: &[DVec3],
 ) {
+    fit_switching(input, quads, positions, (passes, samples), dirs.to_vec(), None);
+}
+
+/// Before pass `at` of a fit: puts vertices onto their lines and returns every vertex's unit
+/// line direction (zero for a free vertex), which the passes from `at` on keep them on.
+pub(crate) type Switch<'a> = (u32, &'a mut dyn FnMut(&mut [DVec3]) -> Vec<DVec3>);
+
+/// [`fit`], whose passes from `switch.0` on move the vertices that `switch.1` puts on lines
+/// along their lines only: the free passes before it place the level, the constrained ones
+/// after it let the free vertices and the line scalars make up for the tangential freedom the
+/// line vertices lose.
+pub(crate) fn fit_switching(
+    input: &Input<'_>,
+    quads: &[[u32; 4]],
+    positions: &mut [DVec3],
+    (passes, samples): (u32, u32),
+    mut dirs: Vec<DVec3>,
+    mut switch: Option<Switch<'_>>,
+) {
     let grid = input.grid;
     if passes == 0 || quads.is_empty() || input.points.is_empty() || grid.len() == 0 {
         return;
@@ -159,6 +178,9 @@ pub(crate) fn fit(
     // with them kept).
     let mut work = Work::default();
     for pass in 0..passes {
+        if let Some((_, on_lines)) = switch.as_mut().filter(|(at, _)| *at == pass) {
+            dirs = on_lines(positions);
+        }
         if pass > 0 {
             splits_into(quads, positions, &mut work.splits);
             reproject(&mut feet, &incidence, quads, positions, &work.splits);
@@ -167,7 +189,7 @@ pub(crate) fn fit(
         if dirs.is_empty() {
             conjugate_gradients(&pattern, positions, &mut work);
         } else {
-            projected_conjugate_gradients(&pattern, positions, &mut work, dirs);
+            projected_conjugate_gradients(&pattern, positions, &mut work, &dirs);
         }
     }
 }

@@ -303,13 +303,17 @@ pub struct ReconOptions {
     /// leaves the vertices free.
     pub decoder_lines: Option<DecoderGrid>,
     /// With [`ReconOptions::decoder_lines`]: how far, in voxel edges of its level, a vertex's
-    /// position after the mapping, relaxation and fit may lie from its decoder line for it to go
-    /// onto the line (one number in the file); farther vertices keep three components.
+    /// position after the mapping, relaxation and the fit's free passes may lie from its decoder
+    /// line for it to go onto the line (one number in the file); farther vertices keep three
+    /// components. Two more passes of the fit then move the line vertices along their lines and
+    /// the free ones in space (on levels the fit skips, [`ReconOptions::fit_max_faces`], the
+    /// vertices within reach go to their lines' nearest points, with no refit).
     /// Infinite: every vertex with a line is computed on it from the mapping on (the mapping
     /// meets the line with the tangent plane, the relaxation holds it, the fit moves its scalar;
-    /// 6-67 % further from the points per level on the bunny and the dragon). Default 0.1: every
-    /// level within +4 % of the free reconstruction's points-to-mesh RMS on the Rabbit, the
-    /// bunny, the dragon and `autzen_trim.laz` (0.3: up to +26 %).
+    /// 6-67 % further from the points per level on the bunny and the dragon). Default 0.3: every
+    /// level within +5 % of the free reconstruction's points-to-mesh RMS on the Rabbit, the
+    /// bunny, the dragon and `autzen_trim.laz`, with 58-90 % of the finest level's vertices on
+    /// lines (0.4: up to +20 %; 0.1: up to +4 %, 24-67 % on lines).
     pub line_reach: f64,
 }
 
@@ -346,7 +350,7 @@ impl Default for ReconOptions {
             untangle_max_faces: 0,
             max_faces: 200_000_000,
             decoder_lines: None,
-            line_reach: 0.1,
+            line_reach: 0.3,
         }
     }
 }

@@ -131,6 +131,30 @@ pub(crate) fn free_folding_lines(
     quads: &[[u32; 4]],
     lines: &mut [Option<crate::lines::LocalLine>],
 ) -> usize {
+    unfold(positions, before, quads, lines, true)
+}
+
+/// After the fit's constrained passes (which move every vertex, from `before`, the positions at
+/// the snap): per face folded, flipped or collapsed against `before`, its vertex that moved
+/// most, with a line or not, goes back to `before` (a line vertex losing its line), until no
+/// face is folded. Returns the number of vertices put back.
+pub(crate) fn unfold_refit(
+    positions: &mut [DVec3],
+    before: &[DVec3],
+    quads: &[[u32; 4]],
+    lines: &mut [Option<crate::lines::LocalLine>],
+) -> usize {
+    unfold(positions, before, quads, lines, false)
+}
+
+/// [`free_folding_lines`] (`only_lines`: only line vertices move back) and [`unfold_refit`].
+fn unfold(
+    positions: &mut [DVec3],
+    before: &[DVec3],
+    quads: &[[u32; 4]],
+    lines: &mut [Option<crate::lines::LocalLine>],
+    only_lines: bool,
+) -> usize {
     let area = |p: &[DVec3], q: &[u32; 4]| {
         (0..4).fold(DVec3::ZERO, |s, i| s + p[q[i] as usize].cross(p[q[(i + 1) % 4] as usize]))
     };
@@ -139,7 +163,9 @@ pub(crate) fn free_folding_lines(
         let worst: Vec<u32> = quads
             .par_iter()
             .filter_map(|q| {
-                let moved = |v: u32| lines[v as usize].is_some() && positions[v as usize] != before[v as usize];
+                let moved = |v: u32| {
+                    (!only_lines || lines[v as usize].is_some()) && positions[v as usize] != before[v as usize]
+                };
                 if !q.iter().any(|&v| moved(v)) {
                     return None;
                 }
@@ -155,7 +181,8 @@ pub(crate) fn free_folding_lines(
             return freed;
         }
         for v in worst {
-            if lines[v as usize].take().is_some() {
+            let had_line = lines[v as usize].take().is_some();
+            if had_line || (!only_lines && positions[v as usize] != before[v as usize]) {
                 positions[v as usize] = before[v as usize];
                 freed += 1;
             }
