@@ -1,7 +1,7 @@
 //! Encodes the hierarchies of MRQ files again, many times (for profiling the encoder alone), on the
 //! file's own grid, and prints the encoder's speed in vertices (all levels) per second on one thread
 //! and whether the output equals the input file:
-//! `cargo run --release -p octowrap-format --example encode_loop -- [-n N] [-z ZSTD_LEVEL] [-o DIR] FILE.mrq...`
+//! `cargo run --release -p octowrap-bench --example encode_loop -- [-n N] [-z ZSTD_LEVEL] [-o DIR] FILE.mrq...`
 //! (`-o`: also writes each output to DIR under its input's name).
 #![allow(clippy::print_stdout)]
 

@@ -2,7 +2,7 @@
 //! its size compressed alone with zstd (level 19), and the geometry stream's parts (line flags,
 //! line parameters, residuals; byte-plane files of versions 2 and 3) with the order-0 entropy of
 //! their values, in bits per finest vertex:
-//! `cargo run --release -p octowrap-format --example mrq_streams -- FILE.mrq...`.
+//! `cargo run --release -p octowrap-bench --example mrq_streams -- FILE.mrq...`.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeMap;
