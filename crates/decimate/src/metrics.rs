@@ -153,6 +153,42 @@ fn one_sided_tris(from: &Triangles, to: &Bvh<'_>, sampling: Sampling) -> OneSide
     OneSided { max: max2.sqrt(), rms, mean, samples: samples.len() }
 }
 
+/// The unsigned distance from each of `points` to the nearest point of `mesh`'s triangles (its
+/// faces as [`Mesh::triangles`] splits them; faces with an index out of range skipped), in the
+/// order of `points`, in the mesh's units: exact point-triangle distances over the same
+/// bounding-volume hierarchy as [`one_sided`]. Every distance is infinite when the mesh has no
+/// faces. Deterministic whatever the thread count (each distance is exact; the search's hint,
+/// the previous point's nearest triangle, only speeds it up).
+///
+/// ```
+/// use octowrap_decimate::metrics::point_distances;
+/// use octowrap_mesh::{FaceList, Mesh};
+/// use octowrap_geom::DVec3;
+///
+/// let mut square = Mesh::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+/// square.faces = FaceList::from_quads(&[[0, 1, 2, 3]]);
+/// let d = point_distances(&[DVec3::new(0.5, 0.5, 2.0), DVec3::new(4.0, 0.0, 0.0), DVec3::Y], &square);
+/// assert_eq!(d, vec![2.0, 3.0, 0.0]);
+/// ```
+pub fn point_distances(points: &[DVec3], mesh: &Mesh) -> Vec<f64> {
+    let pos = &mesh.vertices.positions;
+    let mut tris = mesh.triangles();
+    tris.retain(|t| t.iter().all(|&v| (v as usize) < pos.len()));
+    let t = Triangles::from_indexed(pos, &tris);
+    let bvh = Bvh::new(&t);
+    let mut out = vec![0.0f64; points.len()];
+    // Fixed chunks (not one per thread), each seeding a query with the previous one's triangle.
+    out.par_chunks_mut(256).zip(points.par_chunks(256)).for_each(|(out, p)| {
+        let mut hint = None;
+        for (d, &p) in out.iter_mut().zip(p) {
+            let (e, t) = bvh.nearest(p, hint);
+            *d = e.sqrt();
+            hint = (t != u32::MAX).then_some(t);
+        }
+    });
+    out
+}
+
 /// A mesh's triangles as corner positions.
 pub(crate) struct Triangles {
     pub(crate) corners: Vec<[DVec3; 3]>,
@@ -368,6 +404,30 @@ mod tests {
         assert!((point_triangle_squared(DVec3::new(0.5, -2.0, 0.0), &t) - 4.0).abs() < 1e-15);
         let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
         assert!((point_triangle_squared(DVec3::new(1.0, 1.0, 0.0), &flat) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn point_distances_agree_with_brute_force() {
+        let mut rng = octowrap_geom::SplitMix64::new(11);
+        let mut r = || rng.f64();
+        let positions: Vec<DVec3> = (0..60).map(|_| DVec3::new(r(), r(), r())).collect();
+        let quads: Vec<[u32; 4]> = (0..40).map(|i| [i, i + 5, i + 11, i + 19].map(|v| v % 60)).collect();
+        let mut mesh = Mesh::from_positions(positions);
+        mesh.faces = octowrap_mesh::FaceList::from_quads(&quads);
+        let points: Vec<DVec3> = (0..500).map(|_| DVec3::new(r(), r(), r()) * 1.6 - 0.3).collect();
+        let got = point_distances(&points, &mesh);
+        let tris = Triangles::new(&mesh);
+        for (p, d) in points.iter().zip(&got) {
+            let brute = tris.corners.iter().map(|c| point_triangle_squared(*p, c)).fold(f64::INFINITY, f64::min);
+            assert_eq!(*d, brute.sqrt());
+        }
+        // The thread count changes no bit.
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        assert_eq!(one.install(|| point_distances(&points, &mesh)), got);
+        // No faces (or only faces out of range): no surface, every distance infinite.
+        mesh.faces = octowrap_mesh::FaceList::from_quads(&[[0, 1, 99, 98]]);
+        assert!(point_distances(&points[..3], &mesh).iter().all(|d| d.is_infinite()));
+        assert!(point_distances(&[], &mesh).is_empty());
     }
 
     #[test]
