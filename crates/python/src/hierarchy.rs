@@ -45,6 +45,19 @@ pub fn level_tuple<'py>(py: Python<'py>, level: &Level, kind: Option<&'static st
     )
 }
 
+/// The MRQ file a reconstruction was built for: what `save` does when not told otherwise, so that
+/// `reconstruct(...).save(path)` writes the bytes `octowrap reconstruct -o PATH.mrq` writes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FilePlan {
+    /// The grid: the decoder lines' grid, or the `bits` asked for; `None`: 64 steps per finest
+    /// voxel ([`octowrap_format::reconstruction_grid_bits`]).
+    pub grid: Option<Quantization>,
+    /// The levels were computed on the decoder's lines of `grid` (nothing to place).
+    pub on_lines: bool,
+    /// The positions are written as they are (`--keep-positions`).
+    pub keep_positions: bool,
+}
+
 /// A hierarchy: from `reconstruct` (with each level's kind) or from an MRQ file.
 #[pyclass(frozen, module = "octowrap._octowrap")]
 pub struct RawHierarchy {
@@ -52,6 +65,8 @@ pub struct RawHierarchy {
     pub hierarchy: Hierarchy,
     /// Per level: `root`, `wrapped` or `subdivided` (reconstructions only).
     pub kinds: Vec<Option<&'static str>>,
+    /// The file `save` writes by default.
+    pub file: FilePlan,
 }
 
 impl RawHierarchy {
@@ -82,9 +97,12 @@ impl RawHierarchy {
         self.hierarchy.cube.map(|c| (c.min.to_array(), c.max.to_array()))
     }
 
-    /// Writes the hierarchy as MRQ, as `octowrap reconstruct -o PATH.mrq` does: the vertices
-    /// placed on their prediction lines (unless `keep_positions`), then encoded.
-    #[pyo3(signature = (path, bits=None, step=None, exact=false, zstd_level=19, units=String::new(), source=String::new(), keep_positions=false))]
+    /// Writes the hierarchy as MRQ, as `octowrap reconstruct -o PATH.mrq` does with the options
+    /// `reconstruct` was given ([`FilePlan`]): on the decoder lines' grid, nothing moved; with
+    /// `keep_positions` (here, or given to `reconstruct`) the positions as they are; on another
+    /// grid (`bits`, `step`, `exact` unlike the reconstruction's) the vertices first slide onto
+    /// their prediction lines, as the command line does with `--step`.
+    #[pyo3(signature = (path, bits=None, step=None, exact=false, zstd_level=19, units=String::new(), source=String::new(), keep_positions=None))]
     #[allow(clippy::too_many_arguments, clippy::needless_pass_by_value)]
     fn save(
         &self,
@@ -96,17 +114,16 @@ impl RawHierarchy {
         zstd_level: i32,
         units: String,
         source: String,
-        keep_positions: bool,
+        keep_positions: Option<bool>,
     ) -> PyResult<()> {
-        // The options `octowrap reconstruct -o x.mrq` takes for the same choices: a grid of a
-        // 64th of the finest voxel unless bits, step or exact says otherwise, zstd level 19, the generator named.
+        let plan = self.file;
         let quantization = match (bits, step, exact) {
             (Some(b), None, false) => Quantization::Bits(b),
             (None, Some(s), false) => Quantization::Step(s),
             (None, None, true) => Quantization::Exact,
-            (None, None, false) => Quantization::Bits(octowrap_format::reconstruction_grid_bits(
+            (None, None, false) => plan.grid.unwrap_or(Quantization::Bits(octowrap_format::reconstruction_grid_bits(
                 self.hierarchy.levels.len().saturating_sub(1),
-            )),
+            ))),
             _ => return Err(PyValueError::new_err("give at most one of bits, step and exact")),
         };
         if !(1..=22).contains(&zstd_level) {
@@ -117,9 +134,11 @@ impl RawHierarchy {
         opts.metadata.units = units;
         opts.metadata.source = source;
         opts.metadata.generator = format!("octowrap {}", env!("CARGO_PKG_VERSION"));
+        let keep = keep_positions.unwrap_or(plan.keep_positions);
+        let placed_already = plan.on_lines && plan.grid == Some(quantization);
         let h = &self.hierarchy;
         let written = py.detach(|| {
-            if keep_positions {
+            if keep || placed_already {
                 octowrap_format::write_path(&path, h, &opts)
             } else {
                 let mut placed = h.clone();

@@ -7,7 +7,7 @@ use pyo3::exceptions::PyIndexError;
 use pyo3::prelude::*;
 
 use crate::errors;
-use crate::hierarchy::{LevelTuple, RawHierarchy, level_tuple};
+use crate::hierarchy::{FilePlan, LevelTuple, RawHierarchy, level_tuple};
 
 /// An MRQ file whose preamble has been read and checked.
 #[pyclass(frozen, module = "octowrap._octowrap")]
@@ -83,6 +83,6 @@ impl RawMrq {
         let k = k.unwrap_or_else(|| self.info.levels.len().saturating_sub(1));
         let hierarchy = self.prefix(py, k)?;
         let kinds = vec![None; hierarchy.levels.len()];
-        Ok(RawHierarchy { hierarchy, kinds })
+        Ok(RawHierarchy { hierarchy, kinds, file: FilePlan::default() })
     }
 }

@@ -1,12 +1,13 @@
 //! `reconstruct`: points to a hierarchy, in a rayon pool of the requested size, GIL released.
 
-use octowrap_recon::{DEEPEST_LEVEL, LevelKind, MaxLevel, ReconOptions, SparseMode};
+use octowrap_recon::{DEEPEST_LEVEL, DecoderGrid, LevelKind, MaxLevel, ReconOptions, SparseMode};
+use octowrap_format::Quantization;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::arrays;
-use crate::hierarchy::RawHierarchy;
+use crate::hierarchy::{FilePlan, RawHierarchy};
 
 fn max_level(obj: &Bound<'_, PyAny>) -> PyResult<MaxLevel> {
     let bad = || {
@@ -26,9 +27,13 @@ fn max_level(obj: &Bound<'_, PyAny>) -> PyResult<MaxLevel> {
     u32::try_from(n).map(MaxLevel::Level).map_err(|_| bad())
 }
 
-/// Reconstructs `points` (float64, (N, 3)); the options are `ReconOptions`' fields.
+/// Reconstructs `points` (float64, (N, 3)); the options are `ReconOptions`' fields, and the MRQ
+/// file the hierarchy is built for, as `octowrap reconstruct -o x.mrq` builds it: unless
+/// `keep_positions`, every refined vertex is computed on the MRQ decoder's line
+/// (`ReconOptions::decoder_lines`) on the grid of `bits` (default: 64 steps per finest voxel);
+/// `RawHierarchy::save` then encodes on that grid.
 #[pyfunction]
-#[pyo3(signature = (points, max_level, relax_passes, relax_from_level, fit_passes, fit_max_faces, min_points, wrap_sparse, region_levels, region_density, threads))]
+#[pyo3(signature = (points, max_level, relax_passes, relax_from_level, fit_passes, fit_max_faces, min_points, wrap_sparse, region_levels, region_density, bits, keep_positions, threads))]
 #[allow(clippy::too_many_arguments, clippy::needless_pass_by_value)]
 pub fn reconstruct(
     py: Python<'_>,
@@ -42,6 +47,8 @@ pub fn reconstruct(
     wrap_sparse: bool,
     region_levels: u32,
     region_density: f64,
+    bits: Option<u32>,
+    keep_positions: bool,
     threads: Option<usize>,
 ) -> PyResult<RawHierarchy> {
     let mut opts = ReconOptions::default();
@@ -67,6 +74,15 @@ pub fn reconstruct(
         )));
     }
     opts.region_density = region_density;
+    if let Some(b) = bits.filter(|b| !(1..=octowrap_format::MAX_GRID_BITS).contains(b)) {
+        return Err(PyValueError::new_err(format!(
+            "bits must lie in 1..={}, not {b}",
+            octowrap_format::MAX_GRID_BITS
+        )));
+    }
+    if !keep_positions {
+        opts.decoder_lines = Some(bits.map_or(DecoderGrid::Finest, DecoderGrid::Bits));
+    }
     if threads == Some(0) {
         return Err(PyValueError::new_err("threads must be at least 1 (or None for every core)"));
     }
@@ -88,7 +104,12 @@ pub fn reconstruct(
             })
         })
         .collect();
-    Ok(RawHierarchy { hierarchy: r.hierarchy, kinds })
+    let file = FilePlan {
+        grid: r.line_grid.map(|g| g.quantization()).or(bits.map(Quantization::Bits)),
+        on_lines: r.line_grid.is_some(),
+        keep_positions,
+    };
+    Ok(RawHierarchy { hierarchy: r.hierarchy, kinds, file })
 }
 
 /// The library's defaults for the options `reconstruct` exposes (for the Python signature's test).

@@ -52,25 +52,58 @@ def test_same_bytes_for_any_thread_count(tmp_path):
     assert (tmp_path / "1.mrq").read_bytes() == (tmp_path / "2.mrq").read_bytes()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the command line computes MRQ vertices on the decoder's lines inside the reconstruction "
-    "(ReconOptions::decoder_lines); Hierarchy.save still places them afterwards, so the files differ "
-    "until the Python reconstruct takes the same option",
-)
-def test_same_mrq_bytes_as_the_command_line(tmp_path):
-    exe = octowrap_bin()
+# (command-line arguments, reconstruct's options, save's options): the CLI's default, each MRQ
+# option, and a finest level asked for with other relaxation.
+CLI_CASES = [
+    ([], {}, {}),
+    (["--keep-positions"], {"keep_positions": True}, {}),
+    (["--bits", "14"], {"bits": 14}, {}),
+    (["--level", "6", "--relax-passes", "2"], {"max_level": 6, "relax_passes": 2}, {}),
+    (["--level", "5", "--bits", "13", "--keep-positions"], {"max_level": 5, "bits": 13, "keep_positions": True}, {}),
+    # --step: reconstructed free, then placed on the lines of a grid not tied to the cube.
+    (["--level", "5", "--step", "0.004"], {"max_level": 5, "keep_positions": True}, {"step": 0.004, "keep_positions": False}),
+]
+
+
+@pytest.fixture(scope="module")
+def cli_points(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("cli")
     p = sphere(40000, seed=5) * 3.0 + np.array([10.0, -2.0, 0.5])
-    octowrap.write(tmp_path / "points.ply", octowrap.PointCloud(p))
-    np.testing.assert_array_equal(octowrap.read(tmp_path / "points.ply").points, p)
-    for args, kwargs in [([], {}), (["--level", "6", "--relax-passes", "2", "--bits", "14"], {"max_level": 6, "relax_passes": 2})]:
-        cli = tmp_path / "cli.mrq"
-        run = subprocess.run([str(exe), "reconstruct", str(tmp_path / "points.ply"), "-o", str(cli), *args], capture_output=True, text=True, timeout=300)
-        assert run.returncode == 0, run.stderr
-        h = octowrap.reconstruct(p, **kwargs)
-        save = {"bits": 14} if "--bits" in args else {}
-        h.save(tmp_path / "py.mrq", source="points.ply", **save)
-        assert (tmp_path / "py.mrq").read_bytes() == cli.read_bytes(), args
+    octowrap.write(tmp / "points.ply", octowrap.PointCloud(p))
+    np.testing.assert_array_equal(octowrap.read(tmp / "points.ply").points, p)
+    return tmp / "points.ply", p
+
+
+@pytest.mark.parametrize("args,recon,save", CLI_CASES, ids=[" ".join(c[0]) or "default" for c in CLI_CASES])
+def test_same_mrq_bytes_as_the_command_line(tmp_path, cli_points, args, recon, save):
+    exe = octowrap_bin()
+    ply, p = cli_points
+    cli = tmp_path / "cli.mrq"
+    run = subprocess.run([str(exe), "reconstruct", str(ply), "-o", str(cli), *args], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    h = octowrap.reconstruct(p, **recon)
+    h.save(tmp_path / "py.mrq", source="points.ply", **save)
+    assert (tmp_path / "py.mrq").read_bytes() == cli.read_bytes(), args
+
+
+def test_the_file_decodes_to_the_levels_reconstructed_on_the_decoder_lines(tmp_path, cli_points):
+    _, p = cli_points
+    h = octowrap.reconstruct(p, max_level=5)
+    free = octowrap.reconstruct(p, max_level=5, keep_positions=True)
+    h.save(tmp_path / "lines.mrq")
+    free.save(tmp_path / "free.mrq")
+    f = octowrap.open_mrq(tmp_path / "lines.mrq")
+    for k in range(len(h)):
+        decoded, built = f.level(k).vertices, h[k].vertices
+        assert decoded.shape == built.shape
+        # The decoder orders vertices canonically: compare sorted rows, exactly.
+        np.testing.assert_array_equal(np.unique(decoded, axis=0), np.unique(built, axis=0), err_msg=f"level {k}")
+    # The free reconstruction differs from the lines' and costs more bytes (three numbers per
+    # vertex where the lines' file stores one).
+    assert not np.array_equal(free[5].vertices, h[5].vertices)
+    assert (tmp_path / "free.mrq").stat().st_size > (tmp_path / "lines.mrq").stat().st_size * 1.2
+    with pytest.raises(ValueError, match=r"bits must lie in 1\.\.=28, not 29"):
+        octowrap.reconstruct(p, max_level=2, bits=29)
 
 
 def test_open_mrq_reads_only_the_prefix_it_needs(tmp_path, hierarchy):
@@ -90,11 +123,12 @@ def test_open_mrq_reads_only_the_prefix_it_needs(tmp_path, hierarchy):
     lv3 = g.level(3)
     np.testing.assert_array_equal(lv3.faces, f.level(3).faces)
     assert lv3.kind is None and len(lv3.faces) == len(hierarchy[3].faces)
-    # With keep_positions the file holds every reconstructed vertex within half a grid step on
+    # A free reconstruction's file holds every reconstructed vertex within half a grid step on
     # each axis (in the canonical vertex order: compare each with its nearest).
+    free = octowrap.reconstruct(sphere(30000), max_level=5, keep_positions=True)
     kept = tmp_path / "kept.mrq"
-    hierarchy.save(kept, keep_positions=True)
-    a, b = octowrap.open_mrq(kept).level(3).vertices, hierarchy[3].vertices
+    free.save(kept)
+    a, b = octowrap.open_mrq(kept).level(3).vertices, free[3].vertices
     nearest = np.abs(a[:, None, :] - b[None, :, :]).max(axis=2).min(axis=1)
     step = info["grid"]["step"]
     assert nearest.max() <= step / 2 * (1 + 1e-9), (nearest.max(), step)

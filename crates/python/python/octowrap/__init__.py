@@ -304,16 +304,24 @@ class Hierarchy:
         zstd_level: int = 19,
         units: str = "",
         source: str = "",
-        keep_positions: bool = False,
+        keep_positions: Optional[bool] = None,
     ) -> None:
         """Writes the hierarchy as an MRQ file, exactly as ``octowrap reconstruct -o x.mrq``.
 
-        Positions go on a grid of ``2**bits`` steps across the octree cube (by default a 64th of
-        the finest level's voxel: ``bits = finest level + 6``), or of ``step`` world units, or are
-        stored ``exact``. Unless ``keep_positions``, the vertices first
-        slide along their tangent planes onto the lines the decoder predicts (smaller files; the
-        hierarchy held here is not changed). ``source`` and ``units`` are recorded as metadata (the
-        command line records the input file's name as ``source``).
+        A hierarchy from :func:`reconstruct` is saved as the command line saves it with the same
+        options: on the grid it was built for (``reconstruct``'s ``bits``; by default a 64th of
+        the finest level's voxel, ``bits = finest level + 6``), each refined vertex already on
+        the line the decoder predicts it on, so the file decodes to exactly these levels; with
+        ``reconstruct(..., keep_positions=True)`` the positions as they are (each decoded within
+        half a grid step). ``h.save("x.mrq", source="points.ply")`` then gives the bytes of
+        ``octowrap reconstruct points.ply -o x.mrq`` (the command line records the input file's
+        name as ``source``; ``units`` is recorded too).
+
+        ``bits`` (a grid of ``2**bits`` steps across the octree cube), ``step`` (world units) or
+        ``exact`` store the positions on another grid: the vertices first slide along their
+        tangent planes onto the decoder's lines (the hierarchy held here is not changed), as the
+        command line does with ``--step``, unless ``keep_positions`` (``None``: as given to
+        ``reconstruct``; ``False`` for a hierarchy read from a file).
         """
         self._raw.save(os.fspath(path), bits, step, exact, zstd_level, units, source, keep_positions)
 
@@ -401,6 +409,8 @@ def reconstruct(
     wrap_sparse: bool = False,
     region_levels: int = 0,
     region_density: float = 4.0,
+    bits: Optional[int] = None,
+    keep_positions: bool = False,
     threads: Optional[int] = None,
 ) -> Hierarchy:
     """Reconstructs a surface from ``points`` (``float64 (N, 3)``): a quad mesh at every octree level.
@@ -412,6 +422,13 @@ def reconstruct(
     ``wrap_sparse``, ``region_levels`` and ``region_density``. ``threads`` sets the size of the
     worker pool (``None``: every core); the result is the same for any number. The GIL is released
     while it runs.
+
+    The levels are built for the MRQ file :meth:`Hierarchy.save` writes, as the command line
+    builds them for ``-o x.mrq``: each refined vertex within a tenth of a voxel of the line the
+    decoder predicts it on goes onto that line (one number in the file), every vertex on the
+    file's grid of ``2**bits`` steps across the octree cube (``bits``: ``None`` for 64 steps per
+    finest voxel, or 1 to 28, the command line's ``--bits``). ``keep_positions=True``
+    (``--keep-positions``) leaves the vertices free: slightly closer to the points, a larger file.
 
     >>> import numpy as np, octowrap
     >>> octowrap.reconstruct(np.zeros((0, 3)))
@@ -431,6 +448,8 @@ def reconstruct(
             wrap_sparse,
             region_levels,
             region_density,
+            bits,
+            keep_positions,
             threads,
         )
     )

@@ -73,7 +73,7 @@ class Hierarchy:
         zstd_level: int = 19,
         units: str = "",
         source: str = "",
-        keep_positions: bool = False,
+        keep_positions: Optional[bool] = None,
     ) -> None: ...
 
 class MrqFile:
@@ -95,6 +95,8 @@ def reconstruct(
     wrap_sparse: bool = False,
     region_levels: int = 0,
     region_density: float = 4.0,
+    bits: Optional[int] = None,
+    keep_positions: bool = False,
     threads: Optional[int] = None,
 ) -> Hierarchy: ...
 def open_mrq(path: PathLike) -> MrqFile: ...
