@@ -16,6 +16,7 @@
 
 mod arrays;
 mod decimate;
+mod distance;
 mod errors;
 mod export;
 mod hierarchy;
@@ -41,6 +42,7 @@ fn _octowrap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(decimate::decimate, m)?)?;
     m.add_function(wrap_pyfunction!(export::export_glb, m)?)?;
+    m.add_function(wrap_pyfunction!(distance::distance, m)?)?;
     m.add_class::<hierarchy::RawHierarchy>()?;
     m.add_class::<mrq::RawMrq>()?;
     Ok(())

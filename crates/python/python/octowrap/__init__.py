@@ -53,6 +53,7 @@ __all__ = [
     "MrqFile",
     "PointCloud",
     "decimate",
+    "distance",
     "export_glb",
     "open_mrq",
     "read",
@@ -212,6 +213,10 @@ class Mesh:
         step = np.arange(fans.sum()) - np.repeat(np.cumsum(fans) - fans, fans)
         first = off[:-1][face]
         return np.stack([idx[first], idx[first + step + 1], idx[first + step + 2]], axis=1)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Each point's distance to this mesh's surface: see :func:`distance`."""
+        return distance(points, self)
 
     def to_trimesh(self, process: bool = False) -> Any:
         """A ``trimesh.Trimesh`` (needs trimesh); polygons fanned into triangles, vertex order kept."""
@@ -533,6 +538,32 @@ def _error_bound(max_error: Union[None, float, str]) -> Tuple[Optional[float], b
     if isinstance(max_error, bool):
         raise ValueError("max_error is a length or a percentage string, not a bool")
     return float(max_error), False
+
+
+def distance(points: np.ndarray, mesh: Union[Mesh, np.ndarray], faces: Optional[Faces] = None) -> np.ndarray:
+    """The unsigned distance from each of ``points`` (``float64 (N, 3)``) to the surface of ``mesh``.
+
+    ``mesh`` is a :class:`Mesh` (a :class:`Level` too) or a vertex array with ``faces``; its faces
+    are taken as triangles, quads split along their shorter diagonal as everywhere in octowrap.
+    Returns ``float64 (N,)``, in the input's units, each the exact distance to the nearest point
+    of the nearest triangle (a bounding-volume hierarchy finds it; no sampling), ``inf`` for
+    every point when the mesh has no faces. ``np.sqrt(np.mean(d**2))`` is the points-to-mesh RMS
+    error of the paper's Table 3. The GIL is released while it runs; the result is the same for
+    any thread count.
+
+    >>> import numpy as np, octowrap
+    >>> square = octowrap.Mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float), np.array([[0, 1, 2, 3]]))
+    >>> octowrap.distance(np.array([[0.5, 0.5, 2.0], [4.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), square)
+    array([2., 3., 0.])
+    >>> square.distance(np.zeros((1, 2)))
+    Traceback (most recent call last):
+    ...
+    ValueError: points must be an array of float64 with shape (N, 3), found shape (1, 2) of float64
+    """
+    m, raw_h = _source(mesh, faces, "distance")
+    if m is None:
+        raise ValueError("distance measures to one mesh: pass a Level (h[k]), not a whole Hierarchy")
+    return _octowrap.distance(points, m)
 
 
 def decimate(

@@ -50,6 +50,7 @@ class Mesh:
     @property
     def face_indices(self) -> npt.NDArray[np.int64]: ...
     def triangles(self) -> npt.NDArray[np.int64]: ...
+    def distance(self, points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
     def to_trimesh(self, process: bool = False) -> Any: ...
     def to_open3d(self) -> Any: ...
 
@@ -111,6 +112,11 @@ def validate(
 
 MeshSource = Union[Mesh, Hierarchy, MrqFile, npt.NDArray[np.float64]]
 
+def distance(
+    points: npt.NDArray[np.float64],
+    mesh: Union[Mesh, npt.NDArray[np.float64]],
+    faces: Optional[Faces] = None,
+) -> npt.NDArray[np.float64]: ...
 def decimate(
     data: MeshSource,
     faces: Optional[Faces] = None,
