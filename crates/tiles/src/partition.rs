@@ -132,6 +132,9 @@ impl Partition for OctreePartition {
             if let Some(v) = l.mesh.vertices.positions.iter().position(|p| !p.is_finite()) {
                 return Err(Error::invalid(format!("level {k}: vertex {v} has a non-finite coordinate")));
             }
+            if l.mesh.faces.is_empty() {
+                return Err(Error::invalid(format!("level {k} has no faces: every level of a tileset needs some")));
+            }
         }
         let cube = h
             .cube
