@@ -9,7 +9,8 @@
 //! * Arrays go out as numpy arrays that take over a Rust vector (no copy) or are made by one copy
 //!   of a slice the library keeps.
 //! * Hierarchies held by Python (`RawHierarchy`) are passed to `decimate` and `export_glb` by
-//!   reference, without a copy.
+//!   reference, without a copy (`export_tiles` takes one copy: the tiles writer consumes its
+//!   hierarchy).
 //! * Library errors become Python exceptions with the command line's messages (`errors`):
 //!   `OSError` for the operating system, `FormatError` (a `ValueError`) for unreadable or invalid
 //!   files, `ValueError` for bad arguments.
@@ -23,6 +24,7 @@ mod hierarchy;
 mod meshes;
 mod mrq;
 mod recon;
+mod tiles;
 mod validate;
 
 use pyo3::prelude::*;
@@ -42,6 +44,7 @@ fn _octowrap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(decimate::decimate, m)?)?;
     m.add_function(wrap_pyfunction!(export::export_glb, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::export_tiles, m)?)?;
     m.add_function(wrap_pyfunction!(distance::distance, m)?)?;
     m.add_class::<hierarchy::RawHierarchy>()?;
     m.add_class::<mrq::RawMrq>()?;

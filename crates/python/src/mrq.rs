@@ -27,6 +27,24 @@ impl RawMrq {
         let file = py.detach(|| octowrap_format::read_path(&self.path, &opts));
         Ok(file.map_err(|e| errors::decode_error(&e, &self.path))?.hierarchy)
     }
+
+    /// Every level, decoded (GIL released).
+    pub fn decode_all(&self, py: Python<'_>) -> PyResult<octowrap_mesh::Hierarchy> {
+        self.prefix(py, self.info.levels.len().saturating_sub(1))
+    }
+
+    /// What `octowrap export FILE.mrq -o DIR/tileset.json` takes from the file: its units, source
+    /// and generator (those not empty) for the tileset's `extras`, and its CRS, if any.
+    pub fn tiles_metadata(&self) -> (Vec<(String, String)>, Option<String>) {
+        let m = &self.info.metadata;
+        let pairs = [("units", &m.units), ("source", &m.source), ("generator", &m.generator)]
+            .into_iter()
+            .filter(|(_, v)| !v.is_empty())
+            .map(|(k, v)| (k.to_owned(), v.clone()))
+            .collect();
+        let crs = m.entries.iter().find(|(k, _)| k == octowrap_format::CRS_KEY).map(|(_, v)| v.clone());
+        (pairs, crs)
+    }
 }
 
 /// Opens `path`, reading its preamble only (the level table, quantization and metadata).

@@ -142,3 +142,13 @@ def export_glb(
     screen_error: float = 1.0,
     metadata: Union[None, Dict[str, str], Sequence[Tuple[str, str]]] = None,
 ) -> Tuple[bytes, Dict[str, Any]]: ...
+def export_tiles(
+    data: Union[MeshSource, PathLike],
+    directory: PathLike,
+    *,
+    faces: Optional[Faces] = None,
+    quantize: bool = False,
+    meshopt: bool = False,
+    colors: bool = True,
+    metadata: Union[None, Dict[str, str], Sequence[Tuple[str, str]]] = None,
+) -> Dict[str, Any]: ...
