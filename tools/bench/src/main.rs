@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation, fuzzing); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, validator, decimation, fuzzing, the Python package); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -23,6 +23,7 @@ mod decimate;
 mod format;
 mod fuzz;
 mod io;
+mod python;
 mod recon;
 mod results;
 mod stages;
@@ -52,7 +53,7 @@ fn main() -> std::process::ExitCode {
     println!();
     println!("{}", util::machine_line());
     println!();
-    let sections: [(&str, fn()); 7] = [
+    let sections: [(&str, fn()); 8] = [
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
@@ -60,6 +61,7 @@ fn main() -> std::process::ExitCode {
         ("validate", validate::report),
         ("decimate", decimate::report),
         ("fuzz", fuzz::report),
+        ("python", python::report),
     ];
     for (name, report) in sections {
         if !(wanted.is_empty() || wanted.iter().any(|w| *w == name)) {

@@ -14,7 +14,7 @@ use std::process::Command;
 use crate::util::{Capture, Headline};
 
 /// The areas in page order: key (the section name on the command line) and title.
-pub const AREAS: [(&str, &str); 7] = [
+pub const AREAS: [(&str, &str); 8] = [
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
@@ -22,6 +22,7 @@ pub const AREAS: [(&str, &str); 7] = [
     ("validate", "Validator"),
     ("decimate", "Decimation"),
     ("fuzz", "Fuzzing: the last tools/fuzz campaign"),
+    ("python", "Python package: `import octowrap` against the library and the command line"),
 ];
 
 /// The page's opening, before the areas' blocks.
