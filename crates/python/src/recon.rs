@@ -1,7 +1,7 @@
 //! `reconstruct`: points to a hierarchy, in a rayon pool of the requested size, GIL released.
 
-use octowrap_recon::{DEEPEST_LEVEL, DecoderGrid, LevelKind, MaxLevel, ReconOptions, SparseMode};
 use octowrap_format::Quantization;
+use octowrap_recon::{DEEPEST_LEVEL, DecoderGrid, LevelKind, MaxLevel, ReconOptions, SparseMode};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
@@ -75,10 +75,7 @@ pub fn reconstruct(
     }
     opts.region_density = region_density;
     if let Some(b) = bits.filter(|b| !(1..=octowrap_format::MAX_GRID_BITS).contains(b)) {
-        return Err(PyValueError::new_err(format!(
-            "bits must lie in 1..={}, not {b}",
-            octowrap_format::MAX_GRID_BITS
-        )));
+        return Err(PyValueError::new_err(format!("bits must lie in 1..={}, not {b}", octowrap_format::MAX_GRID_BITS)));
     }
     if !keep_positions {
         opts.decoder_lines = Some(bits.map_or(DecoderGrid::Finest, DecoderGrid::Bits));

@@ -56,7 +56,10 @@ pub fn export_tiles<'py>(
     metadata: Vec<(String, String)>,
 ) -> PyResult<String> {
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-        return Err(PyValueError::new_err(format!("a tileset is a .json file: {} does not end in .json", path.display())));
+        return Err(PyValueError::new_err(format!(
+            "a tileset is a .json file: {} does not end in .json",
+            path.display()
+        )));
     }
     let mut opts = TilesOptions::default();
     opts.quantize = quantize;

@@ -42,12 +42,14 @@ fn number(out: &str, key: &str) -> Option<f64> {
 }
 
 /// Runs the area.
+#[allow(clippy::too_many_lines)] // one section: find the tools, measure, print, in that order
 pub fn report() {
     outln!("## Python package (`import octowrap`)");
     outln!();
     let py = python();
     let probe = Command::new(&py).args(["-c", "import octowrap; print(octowrap.__file__)"]).output();
-    let Some(package) = probe.ok().filter(|o| o.status.success()).map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    let Some(package) =
+        probe.ok().filter(|o| o.status.success()).map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
     else {
         outln!(
             "SKIPPED: `{py}` cannot import octowrap (pip install ./crates/python into it, or set OCTOWRAP_PYTHON to an \
@@ -57,10 +59,13 @@ pub fn report() {
     };
     let exe = std::env::current_exe().ok();
     let Some(cli) = exe.as_deref().and_then(Path::parent).map(|d| d.join("octowrap")).filter(|p| p.is_file()) else {
-        outln!("SKIPPED: the `octowrap` binary is not beside the bench (`cargo build --release -p octowrap-cli` first)");
+        outln!(
+            "SKIPPED: the `octowrap` binary is not beside the bench (`cargo build --release -p octowrap-cli` first)"
+        );
         return;
     };
-    let Some(dragon) = shared_data().map(|d| d.join("stanford-dragon/dragon_vrip.ply.gz")).filter(|p| p.is_file()) else {
+    let Some(dragon) = shared_data().map(|d| d.join("stanford-dragon/dragon_vrip.ply.gz")).filter(|p| p.is_file())
+    else {
         outln!("SKIPPED: stanford-dragon/dragon_vrip.ply.gz is not in the data folder (set OCTOWRAP_DATA)");
         return;
     };
@@ -83,24 +88,17 @@ pub fn report() {
             let r = octowrap_recon::reconstruct_with_progress(&points, &opts, &mut |_| {});
             lib = lib.min(wall.elapsed().as_secs_f64());
             lib_cpu = lib_cpu.min(cpu.elapsed().as_secs_f64());
-            if let Err(e) = r {
-                return Err(e);
-            }
+            r?;
         }
-        Ok(())
+        Ok::<(), octowrap_recon::Error>(())
     };
     if let Err(e) = library() {
         outln!("SKIPPED: the library call failed: {e}");
         return;
     }
     let driver = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/driver.py");
-    let run = Command::new(&py)
-        .arg(&driver)
-        .arg(&dragon)
-        .arg(LEVEL.to_string())
-        .arg(RUNS.to_string())
-        .arg(&cli)
-        .output();
+    let run =
+        Command::new(&py).arg(&driver).arg(&dragon).arg(LEVEL.to_string()).arg(RUNS.to_string()).arg(&cli).output();
     let out = match run {
         Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).into_owned(),
         Ok(o) => {
@@ -147,7 +145,9 @@ pub fn report() {
     outln!("| wheel size ({}) | {:.2} MB | – |", field(&out, "wheel_what").unwrap_or("?"), wheel / 1e6);
     outln!();
     headline(
-        format!("`octowrap.reconstruct` from numpy / the library call, dragon to level {LEVEL}, {threads} threads: CPU time"),
+        format!(
+            "`octowrap.reconstruct` from numpy / the library call, dragon to level {LEVEL}, {threads} threads: CPU time"
+        ),
         format!("{cpu_ratio:.3}x ({cpu:.3} s / {lib_cpu:.3} s; wall {secs:.3} s / {lib:.3} s)"),
         "≤ 1.10x",
         Some(cpu_ratio <= 1.10),
@@ -158,7 +158,12 @@ pub fn report() {
         "≤ 1.10x",
         Some(mem <= 1.10),
     );
-    headline("`import octowrap` (fresh interpreter, best of 5)", format!("{import:.3} s"), "< 0.2 s", Some(import < 0.2));
+    headline(
+        "`import octowrap` (fresh interpreter, best of 5)",
+        format!("{import:.3} s"),
+        "< 0.2 s",
+        Some(import < 0.2),
+    );
     headline(
         format!("wheel size ({})", field(&out, "wheel_what").unwrap_or("?")),
         format!("{:.2} MB", wheel / 1e6),
