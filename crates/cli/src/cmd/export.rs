@@ -45,6 +45,7 @@ use crate::progress;
 ///   octowrap export part.stl -o part.gltf --crease-angle 30
 ///   octowrap export bunny.ply -o bunny.glb --no-colors
 ///   octowrap export autzen.mrq -o tiles/tileset.json --meshopt --quantize
+///   octowrap export kitten.mrq -o kitten/tileset.json --tile-faces 1000
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 #[allow(clippy::doc_markdown)] // the help text names glTF extensions, not Rust items
@@ -79,6 +80,10 @@ pub struct Args {
     /// (a positive number).
     #[arg(long, value_name = "PIXELS", default_value_t = 1.0, value_parser = parse_pixels)]
     pub screen_error: f64,
+    /// Tilesets only: a level with more faces than N is cut into octree cells, one tile each
+    /// (default 16384; a positive number).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub tile_faces: Option<u32>,
     #[command(flatten)]
     pub input_args: InputArgs,
     #[command(flatten)]
@@ -115,6 +120,9 @@ pub enum WhichLevels {
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if super::tileset::is_tileset(args) {
         return super::tileset::run(args);
+    }
+    if args.tile_faces.is_some() {
+        bail!("--tile-faces is a tileset option: give an output ending in .json");
     }
     let gz = octowrap_fsutil::is_gz(&args.output);
     let container = octowrap_export::Container::from_path(&octowrap_fsutil::without_gz(&args.output));

@@ -29,6 +29,11 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.meshopt = args.meshopt;
     opts.colors = !args.no_colors;
     opts.no_clobber = args.clobber.no_clobber;
+    if let Some(n) = args.tile_faces {
+        let mut p = octowrap_tiles::OctreePartition::default();
+        p.target_faces = n as usize;
+        opts.partition = p;
+    }
     let input_name = args.input.display().to_string();
     let (h, frame) = if mrq::is_mrq(&args.input) {
         let file = mrq::read(&args.input, None)?;

@@ -1,0 +1,167 @@
+// Loads the tileset named by ?tileset=URL with 3DTilesRendererJS (three.js) and exposes
+// `window.octowrap` for check-clients.mjs:
+//   ready / error;
+//   view(name): moves the camera to a view of views.js, updates and renders until no tile is
+//     loading and the drawn set is stable, and returns the drawn tiles (content URI, geometric
+//     error, tree depth, distance from the camera) and how many frames it took;
+//   cracks(name): at that view, the pixels a render of the finest level covers that the tiled
+//     view leaves empty, as a count and a fraction of the finest level's pixels.
+// The finest level's render is a second TilesRenderer on the same tileset with an error target of
+// zero, which draws only the tiles whose geometric error is 0: the finest level's tiles. Both
+// renders use one flat, front-face-only material, so a crack shows as an empty pixel (a back face
+// seen through it is not drawn).
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { TilesRenderer } from '3d-tiles-renderer';
+import { views, SIZE, FOV_DEG } from './views.js';
+
+const state = { ready: false, error: null };
+window.octowrap = state;
+window.addEventListener('error', (e) => { state.error = String(e.message || e); });
+window.addEventListener('unhandledrejection', (e) => { state.error = String(e.reason && e.reason.message || e.reason); });
+
+const params = new URLSearchParams(location.search);
+const url = params.get('tileset');
+const ERROR_TARGET = Number(params.get('errorTarget') || 16);
+
+const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+renderer.setPixelRatio(1);
+renderer.setSize(SIZE, SIZE);
+document.body.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1e2630);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 1.6));
+const camera = new THREE.PerspectiveCamera(FOV_DEG, 1, 1, 1e8);
+const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+sun.position.set(0.3, 1, 1);
+camera.add(sun);
+scene.add(camera);
+
+function makeTiles(errorTarget) {
+  const tiles = new TilesRenderer(url);
+  const loader = new GLTFLoader(tiles.manager);
+  loader.setMeshoptDecoder(MeshoptDecoder);
+  tiles.manager.addHandler(/\.(gltf|glb)$/g, loader);
+  tiles.errorTarget = errorTarget;
+  tiles.setCamera(camera);
+  tiles.setResolution(camera, SIZE, SIZE);
+  tiles.addEventListener('load-error', (e) => { state.error = `load error: ${e.url || ''} ${e.error && e.error.message}`; });
+  return tiles;
+}
+
+const tiled = makeTiles(ERROR_TARGET);
+scene.add(tiled.group);
+let finest = null;
+let tilesetJson = null;
+let placed = null;
+
+const frame = () => new Promise((ok) => requestAnimationFrame(() => ok()));
+
+function place(name) {
+  const v = placed.views[name];
+  if (!v) throw new Error(`no view named ${name}`);
+  camera.position.set(...v.eye);
+  camera.up.set(...v.up);
+  camera.lookAt(...v.target);
+  camera.near = Math.max(placed.radius * 1e-3, 1e-3);
+  camera.far = placed.radius * 100;
+  camera.updateProjectionMatrix();
+  camera.updateMatrixWorld(true);
+}
+
+function loading(tiles) {
+  const s = tiles.stats || {};
+  return (s.queued || 0) + (s.downloading || 0) + (s.parsing || 0) + (s.loading || 0);
+}
+
+// Updates and renders until nothing loads and the drawn set has not changed for a few frames.
+async function settle(tiles, draw) {
+  let key = '';
+  let still = 0;
+  for (let n = 1; n <= 2000; n++) {
+    camera.updateMatrixWorld(true);
+    tiles.update();
+    draw();
+    await frame();
+    const now = [...tiles.visibleTiles].map((t) => (t.content && t.content.uri) || '').sort().join('|');
+    if (state.error) throw new Error(state.error);
+    if (loading(tiles) === 0 && now === key && now !== '' && tiles.loadProgress === 1) {
+      if (++still >= 4) return n;
+    } else {
+      still = 0;
+    }
+    key = now;
+  }
+  throw new Error('the tiles did not settle in 2000 frames');
+}
+
+function drawn(tiles) {
+  return [...tiles.visibleTiles].map((t) => ({
+    uri: (t.content && t.content.uri) || null,
+    geometricError: t.geometricError,
+    depth: t.internal ? t.internal.depth : null,
+    leaf: !t.children || t.children.length === 0,
+    distance: t.traversal ? t.traversal.distanceFromCamera : null,
+  })).sort((a, b) => a.distance - b.distance);
+}
+
+state.view = async (name) => {
+  place(name);
+  const frames = await settle(tiled, () => renderer.render(scene, camera));
+  return { name, frames, eye: placed.views[name].eye, tiles: drawn(tiled) };
+};
+
+const flat = new THREE.MeshBasicMaterial({ color: 0xffffff, side: THREE.FrontSide });
+const target = new THREE.WebGLRenderTarget(SIZE, SIZE);
+
+function mask(group) {
+  const only = new THREE.Scene();
+  only.background = new THREE.Color(0x000000);
+  only.overrideMaterial = flat;
+  const parent = group.parent;
+  only.add(group);
+  renderer.setRenderTarget(target);
+  renderer.render(only, camera);
+  const px = new Uint8Array(SIZE * SIZE * 4);
+  renderer.readRenderTargetPixels(target, 0, 0, SIZE, SIZE, px);
+  renderer.setRenderTarget(null);
+  if (parent) parent.add(group);
+  const out = new Uint8Array(SIZE * SIZE);
+  for (let i = 0; i < out.length; i++) out[i] = px[i * 4] > 127 ? 1 : 0;
+  return out;
+}
+
+state.cracks = async (name) => {
+  place(name);
+  await settle(tiled, () => renderer.render(scene, camera));
+  const shown = mask(tiled.group);
+  if (!finest) finest = makeTiles(0);
+  const holder = new THREE.Scene();
+  holder.add(finest.group);
+  const frames = await settle(finest, () => renderer.render(holder, camera));
+  const levels = drawn(finest);
+  if (levels.some((t) => t.geometricError !== 0)) throw new Error('the error-0 renderer drew a tile with a positive error');
+  const full = mask(finest.group);
+  let model = 0;
+  let missing = 0;
+  for (let i = 0; i < full.length; i++) {
+    model += full[i];
+    if (full[i] && !shown[i]) missing++;
+  }
+  renderer.render(scene, camera);
+  return { name, frames, modelPixels: model, missingPixels: missing, fraction: model ? missing / model : 0, finestTiles: levels.length };
+};
+
+async function main() {
+  if (!url) throw new Error('no ?tileset=URL');
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  tilesetJson = await response.json();
+  placed = views(tilesetJson, params.get('view'));
+  state.radius = placed.radius;
+  state.views = Object.keys(placed.views);
+  state.ready = true;
+}
+
+main().catch((e) => { state.error = String(e && e.message || e); });
