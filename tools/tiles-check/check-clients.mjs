@@ -8,15 +8,19 @@
 // Each drawn tile is {uri, geometricError, depth, leaf, distance} as the client reports it,
 // nearest first.
 //
-//   node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--view ex,ey,ez,tx,ty,tz]
-//                          [--error-target PIXELS] [--chromium PATH]
+//   node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--views far,near,given]
+//                          [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]
+//
+// --view adds the view `given` (root frame: eye, then target), where the crack measure is then
+// taken; --views keeps only the views named; --error-target is both clients' screen-space error
+// in pixels (default 16, as both clients default to).
 //
 // This folder and the tileset's folder are served from 127.0.0.1 on a free port for the run only
 // (nothing else is fetched: no Cesium ion, no imagery, no terrain). Chromium is /usr/bin/chromium
 // unless given, with a fresh profile. Exit 0 with the JSON when every page loaded and ran, 1 when a
 // page reported an error (the JSON says which), 2 when nothing could run.
 import http from 'node:http';
-import { mkdir, mkdtemp, readFile, rm } from 'node:fs/promises';
+import { mkdir, mkdtemp, readFile, rm, writeFile } from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -24,18 +28,19 @@ import { chromium } from 'playwright-core';
 
 const args = process.argv.slice(2);
 const positional = [];
-const opts = { clients: 'three,cesium', view: null, errorTarget: '16', chromium: '/usr/bin/chromium' };
+const opts = { clients: 'three,cesium', views: null, view: null, errorTarget: '16', chromium: '/usr/bin/chromium' };
 for (let i = 0; i < args.length; i++) {
   const a = args[i];
   if (a === '--clients') opts.clients = args[++i];
   else if (a === '--view') opts.view = args[++i];
+  else if (a === '--views') opts.views = args[++i].split(',');
   else if (a === '--error-target') opts.errorTarget = args[++i];
   else if (a === '--chromium') opts.chromium = args[++i];
   else positional.push(a);
 }
 const [tileset, outDir] = positional;
 if (!tileset || !outDir) {
-  console.error('usage: node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]');
+  console.error('usage: node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--views far,near,given] [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]');
   process.exit(2);
 }
 const root = path.dirname(fileURLToPath(import.meta.url));
@@ -98,7 +103,7 @@ try {
       const error = await page.evaluate(() => window.octowrap.error);
       if (error) throw new Error(error);
       result.placement = await page.evaluate(() => window.octowrap.placement || null);
-      const names = await page.evaluate(() => window.octowrap.views);
+      const names = (await page.evaluate(() => window.octowrap.views)).filter((n) => !opts.views || opts.views.includes(n));
       result.views = {};
       for (const name of names) {
         result.views[name] = await page.evaluate((n) => window.octowrap.view(n), name);
@@ -109,6 +114,10 @@ try {
       if (client === 'three') {
         const name = names.includes('given') ? 'given' : 'near';
         result.cracks = await page.evaluate((n) => window.octowrap.cracks(n), name);
+        const shot = path.join(outDir, `${client}-cracks.png`);
+        await writeFile(shot, Buffer.from(result.cracks.picture.split(',')[1], 'base64'));
+        delete result.cracks.picture;
+        result.screenshots.push(shot);
       }
     } catch (err) {
       result.error = String(err && err.message ? err.message : err);

@@ -44,6 +44,9 @@ function makeTiles(errorTarget) {
   loader.setMeshoptDecoder(MeshoptDecoder);
   tiles.manager.addHandler(/\.(gltf|glb)$/g, loader);
   tiles.errorTarget = errorTarget;
+  // Tests load everything at once from localhost: more parallel downloads and parses per frame.
+  tiles.downloadQueue.maxJobs = 32;
+  tiles.parseQueue.maxJobs = 32;
   tiles.setCamera(camera);
   tiles.setResolution(camera, SIZE, SIZE);
   tiles.addEventListener('load-error', (e) => { state.error = `load error: ${e.url || ''} ${e.error && e.error.message}`; });
@@ -150,7 +153,24 @@ state.cracks = async (name) => {
     if (full[i] && !shown[i]) missing++;
   }
   renderer.render(scene, camera);
-  return { name, frames, modelPixels: model, missingPixels: missing, fraction: model ? missing / model : 0, finestTiles: levels.length };
+  // The picture of the measure: grey where both cover, white where the tiled view covers alone,
+  // red where only the finest level does (the cracks), rows flipped to the screen's order.
+  const canvas = document.createElement('canvas');
+  canvas.width = SIZE;
+  canvas.height = SIZE;
+  const g = canvas.getContext('2d');
+  const img = g.createImageData(SIZE, SIZE);
+  for (let y = 0; y < SIZE; y++) {
+    for (let x = 0; x < SIZE; x++) {
+      const i = (SIZE - 1 - y) * SIZE + x;
+      const o = (y * SIZE + x) * 4;
+      const c = full[i] && !shown[i] ? [255, 0, 0] : full[i] ? [128, 128, 128] : shown[i] ? [255, 255, 255] : [0, 0, 0];
+      img.data.set([...c, 255], o);
+    }
+  }
+  g.putImageData(img, 0, 0);
+  const picture = canvas.toDataURL('image/png');
+  return { name, frames, modelPixels: model, missingPixels: missing, fraction: model ? missing / model : 0, finestTiles: levels.length, picture };
 };
 
 async function main() {
