@@ -9,10 +9,10 @@
 // nearest first.
 //
 //   node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--views far,near,given]
-//                          [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]
+//                          [--no-cracks] [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]
 //
 // --view adds the view `given` (root frame: eye, then target), where the crack measure is then
-// taken; --views keeps only the views named; --error-target is both clients' screen-space error
+// taken; --views keeps only the views named; --no-cracks leaves the crack measure out; --error-target is both clients' screen-space error
 // in pixels (default 16, as both clients default to).
 //
 // This folder and the tileset's folder are served from 127.0.0.1 on a free port for the run only
@@ -28,19 +28,20 @@ import { chromium } from 'playwright-core';
 
 const args = process.argv.slice(2);
 const positional = [];
-const opts = { clients: 'three,cesium', views: null, view: null, errorTarget: '16', chromium: '/usr/bin/chromium' };
+const opts = { clients: 'three,cesium', cracks: true, views: null, view: null, errorTarget: '16', chromium: '/usr/bin/chromium' };
 for (let i = 0; i < args.length; i++) {
   const a = args[i];
   if (a === '--clients') opts.clients = args[++i];
   else if (a === '--view') opts.view = args[++i];
   else if (a === '--views') opts.views = args[++i].split(',');
+  else if (a === '--no-cracks') opts.cracks = false;
   else if (a === '--error-target') opts.errorTarget = args[++i];
   else if (a === '--chromium') opts.chromium = args[++i];
   else positional.push(a);
 }
 const [tileset, outDir] = positional;
 if (!tileset || !outDir) {
-  console.error('usage: node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--views far,near,given] [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]');
+  console.error('usage: node check-clients.mjs DIR/tileset.json OUTDIR [--clients three,cesium] [--views far,near,given] [--no-cracks] [--view ex,ey,ez,tx,ty,tz] [--error-target PIXELS] [--chromium PATH]');
   process.exit(2);
 }
 const root = path.dirname(fileURLToPath(import.meta.url));
@@ -111,7 +112,7 @@ try {
         await page.screenshot({ path: shot });
         result.screenshots.push(shot);
       }
-      if (client === 'three') {
+      if (client === 'three' && opts.cracks) {
         const name = names.includes('given') ? 'given' : 'near';
         result.cracks = await page.evaluate((n) => window.octowrap.cracks(n), name);
         const shot = path.join(outDir, `${client}-cracks.png`);

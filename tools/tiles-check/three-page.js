@@ -14,6 +14,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { TilesRenderer } from '3d-tiles-renderer';
+import { ImplicitTilingPlugin } from '3d-tiles-renderer/core/plugins';
 import { views, SIZE, FOV_DEG } from './views.js';
 
 const state = { ready: false, error: null };
@@ -40,6 +41,7 @@ scene.add(camera);
 
 function makeTiles(errorTarget) {
   const tiles = new TilesRenderer(url);
+  tiles.registerPlugin(new ImplicitTilingPlugin());
   const loader = new GLTFLoader(tiles.manager);
   loader.setMeshoptDecoder(MeshoptDecoder);
   tiles.manager.addHandler(/\.(gltf|glb)$/g, loader);

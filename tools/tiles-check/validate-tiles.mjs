@@ -1,7 +1,7 @@
-// Runs the Khronos glTF-Validator on every content of a 3D Tiles tileset (explicit tiles, or the
-// glb files under the tileset's folder for implicit ones) and prints one line per file with issues
-// and a total line: "N files: E errors, W warnings". Exit 1 when any file has an error or a
-// warning, 2 when the tileset cannot be read.
+// Runs the Khronos glTF-Validator on every content of a 3D Tiles tileset (explicit tiles, or every
+// glb file under the tileset's folder when a content URI is an implicit-tiling template) and
+// prints one line per file with issues and a total line: "N files: E errors, W warnings". Exit 1
+// when any file has an error or a warning, 2 when the tileset cannot be read.
 //
 //   node validate-tiles.mjs DIR/tileset.json
 import { readFile, readdir } from 'node:fs/promises';
@@ -27,13 +27,15 @@ async function glbsUnder(d) {
 
 try {
   const json = JSON.parse(await readFile(tileset, 'utf8'));
-  const files = [];
+  let files = [];
+  let templates = false;
   const visit = (t) => {
-    if (t.content && t.content.uri && !t.content.uri.includes('{')) files.push(path.join(dir, decodeURIComponent(t.content.uri)));
+    if (t.content && t.content.uri && t.content.uri.includes('{')) templates = true;
+    else if (t.content && t.content.uri) files.push(path.join(dir, decodeURIComponent(t.content.uri)));
     (t.children || []).forEach(visit);
   };
   visit(json.root);
-  if (files.length === 0) files.push(...(await glbsUnder(dir)));
+  if (templates) files = await glbsUnder(dir);
   files.sort();
   let errors = 0;
   let warnings = 0;

@@ -239,3 +239,52 @@ fn autzen_tiles_land_where_pyproj_puts_them() {
         dir.display()
     );
 }
+
+/// The implicit level of a drawn tile (`implicit/LEVEL/X-Y-Z.glb`); explicit tiles above the
+/// implicit root count as level 0.
+fn implicit_level(t: &Value) -> u64 {
+    let uri = t["uri"].as_str().unwrap_or("");
+    uri.strip_prefix("implicit/").and_then(|r| r.split('/').next()).and_then(|l| l.parse().ok()).unwrap_or(0)
+}
+
+/// `--implicit`: the same kitten as implicit tiling passes the spec checks (subtrees walked) and
+/// the validator, and both clients expand the subtrees and refine by distance.
+#[test]
+fn kitten_implicit_tileset_refines_in_both_clients() {
+    let dir = clients::artefacts("kitten-implicit");
+    let mrq = dir.join("kitten.mrq");
+    run(&["reconstruct", s(&kitten()), "-o", s(&mrq)]);
+    let tileset = dir.join("tiles/tileset.json");
+    run(&["export", s(&mrq), "-o", s(&tileset), "--tile-faces", "500", "--implicit"]);
+    let report = octowrap_tiles::check::check_tileset(&tileset).unwrap();
+    assert!(report.findings.is_empty(), "{:#?}", report.findings);
+    let ts = read_json(&tileset);
+    fn implicit_root(t: &Value) -> Option<&Value> {
+        if t.get("implicitTiling").is_some() { Some(t) } else { t["children"].as_array()?.iter().find_map(implicit_root) }
+    }
+    let imp = &implicit_root(&ts["root"]).expect("an implicit root")["implicitTiling"];
+    let deepest = imp["availableLevels"].as_u64().unwrap() - 1;
+    assert!(deepest >= 3, "{imp}");
+    validate_tiles(&tileset);
+    // Implicit errors halve per level from a root error at or above every measured one, so they
+    // overstate the finer tiles' errors: a client at 32 pixels refines as one at 16 does the
+    // explicit tileset.
+    let Some(r) = clients::check_clients(&tileset, &dir, &["--no-cracks", "--error-target", "32"]) else { return };
+    for client in ["three", "cesium"] {
+        let c = &r[client];
+        assert_eq!(c["errors"].as_array().map(Vec::len), Some(0), "{client}: console errors: {}", c["errors"]);
+        let far = clients::drawn(&r, client, "far");
+        let near = clients::drawn(&r, client, "near");
+        assert!(!far.is_empty() && far.iter().all(|t| implicit_level(t) < deepest), "{client} far: {}", c["views"]["far"]);
+        let (first, last) = (near.first().expect("tiles drawn near"), near.last().unwrap());
+        assert_eq!(implicit_level(first), deepest, "{client}: the nearest tile is finest: {}", c["views"]["near"]);
+        assert!(implicit_level(last) < deepest, "{client}: the farthest tile stays coarse: {}", c["views"]["near"]);
+    }
+    println!(
+        "kitten --implicit: {} tiles; near view draws {} tiles; three {:.1} s, cesium {:.1} s",
+        report.tiles,
+        clients::drawn(&r, "three", "near").len(),
+        r["three"]["seconds"].as_f64().unwrap(),
+        r["cesium"]["seconds"].as_f64().unwrap()
+    );
+}

@@ -17,6 +17,13 @@
 //! * **content URIs resolve**: relative to the tileset's folder, to a file that is a GLB
 //!   (`glTF` magic, version 2, its declared length the file's) (§6.8, §7.8).
 //!
+//! * **implicit tiling** (§6.8, octree scheme): the tile has a box or region and no explicit
+//!   children; every subtree file reachable from the root parses (header, JSON, bitstreams long
+//!   enough, 8-byte aligned); every available tile's parent is available, content only where a
+//!   tile is, available contents resolve to GLBs, available child subtrees exist, and nothing is
+//!   available below `availableLevels`. At most [`MAX_IMPLICIT_TILES`] tiles (and 16 times as
+//!   many availability bits) are walked, and subtrees of at most 8 levels.
+//!
 //! The glTF contents themselves are checked by the Khronos glTF-Validator
 //! (`tools/tiles-check/validate-tiles.mjs`), not here.
 
@@ -24,8 +31,12 @@ use std::path::{Component, Path};
 
 use octowrap_geom::DVec3;
 
-use crate::Error;
-use crate::tileset::{BoundingVolume, Tile, Tileset};
+use crate::partition::Cell;
+use crate::tileset::{BoundingVolume, ImplicitTiling, Tile, Tileset};
+use crate::{Error, implicit};
+
+/// Implicit tiles a check walks at most (a constant availability bit can declare `8^levels`).
+pub const MAX_IMPLICIT_TILES: usize = 4_000_000;
 
 /// What a check found: the tiles visited and the rule breaks.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -171,7 +182,8 @@ fn visit(tile: &Tile, at: &str, dir: &Path, parent: Option<(&Tile, Option<Obb>)>
             }
         }
     }
-    if let Some(content) = &tile.content {
+    // Under implicit tiling the content URI is a template, resolved per tile below.
+    if let Some(content) = tile.content.as_ref().filter(|_| tile.implicit_tiling.is_none()) {
         match resolve(dir, &content.uri) {
             Err(why) => r.findings.push(format!("{at}: content uri '{}' {why}", content.uri)),
             Ok(file) => match glb_problem(&file) {
@@ -180,8 +192,124 @@ fn visit(tile: &Tile, at: &str, dir: &Path, parent: Option<(&Tile, Option<Obb>)>
             },
         }
     }
+    if let Some(imp) = &tile.implicit_tiling {
+        check_implicit(tile, imp, at, dir, r);
+    }
     for (i, child) in tile.children.iter().enumerate() {
         visit(child, &format!("{at}/children/{i}"), dir, Some((tile, own)), r);
+    }
+}
+
+fn check_implicit(tile: &Tile, imp: &ImplicitTiling, at: &str, dir: &Path, r: &mut CheckReport) {
+    if !tile.children.is_empty() {
+        r.findings.push(format!("{at}: a tile with implicitTiling must not list children"));
+    }
+    if tile.bounding_volume.sphere.is_some() {
+        r.findings.push(format!("{at}: implicit tiling needs a box or region, not a sphere"));
+    }
+    match imp.subdivision_scheme.as_str() {
+        "OCTREE" => {}
+        // Quadtrees are valid; this checker walks octrees only.
+        "QUADTREE" => return,
+        other => {
+            r.findings.push(format!("{at}: subdivisionScheme '{other}' is neither QUADTREE nor OCTREE"));
+            return;
+        }
+    }
+    let (n, levels) = (imp.subtree_levels, imp.available_levels);
+    if !(1..=8).contains(&n) || levels == 0 || levels > 31 {
+        r.findings.push(format!(
+            "{at}: subtreeLevels {n} and availableLevels {levels} must be positive (at most 8 and 31 here)"
+        ));
+        return;
+    }
+    let n = u8::try_from(n).expect("at most 8");
+    let mut steps = 0usize;
+    let content = tile.content.as_ref().map(|c| c.uri.as_str());
+    let mut walked = 0usize;
+    let mut roots = vec![(Cell::ROOT, true)];
+    while let Some((root, root_parent)) = roots.pop() {
+        let uri = implicit::fill(&imp.subtrees.uri, root);
+        let sub_at = format!("{at}: subtree {uri}");
+        let bytes = match resolve(dir, &uri) {
+            Ok(file) => match std::fs::read(&file) {
+                Ok(b) => b,
+                Err(e) => {
+                    r.findings.push(format!("{sub_at} cannot be read: {e}"));
+                    continue;
+                }
+            },
+            Err(why) => {
+                r.findings.push(format!("{sub_at} {why}"));
+                continue;
+            }
+        };
+        let sub = match implicit::Subtree::parse(&bytes, n) {
+            Ok(s) => s,
+            Err(why) => {
+                r.findings.push(format!("{sub_at}: {why}"));
+                continue;
+            }
+        };
+        if !sub.tiles.get(0) && root_parent {
+            r.findings.push(format!("{sub_at}: its root tile is not available but the subtree is"));
+        }
+        for l in 0..=n {
+            let count = 1u64 << (3 * u32::from(l));
+            for m in 0..count {
+                steps += 1;
+                if steps > 16 * MAX_IMPLICIT_TILES {
+                    r.findings.push(format!("{at}: the subtrees hold too many bits to walk; not walked further"));
+                    return;
+                }
+                let rel = implicit::demorton(m, l);
+                let cell = Cell { depth: root.depth + l, xyz: [0, 1, 2].map(|k| (root.xyz[k] << l) + rel[k]) };
+                let parent_bit = (l > 0).then(|| implicit::bit_index(root, cell.parent()));
+                if l == n {
+                    if sub.children.get(m as usize) {
+                        if u32::from(cell.depth) >= levels {
+                            r.findings.push(format!("{sub_at}: child subtree {cell:?} lies below availableLevels"));
+                        } else if parent_bit.is_some_and(|b| !sub.tiles.get(b)) {
+                            r.findings.push(format!("{sub_at}: child subtree {cell:?} under an unavailable tile"));
+                        } else {
+                            roots.push((cell, true));
+                        }
+                    }
+                    continue;
+                }
+                let bit = implicit::bit_index(root, cell);
+                let (has_tile, has_content) = (sub.tiles.get(bit), sub.content.get(bit));
+                if has_content && !has_tile {
+                    r.findings.push(format!("{sub_at}: content of {cell:?} where no tile is available"));
+                }
+                if !has_tile {
+                    continue;
+                }
+                walked += 1;
+                if walked > MAX_IMPLICIT_TILES {
+                    r.findings.push(format!("{at}: more than {MAX_IMPLICIT_TILES} implicit tiles; not walked further"));
+                    return;
+                }
+                // The implicit root is the tile itself, counted already.
+                r.tiles += usize::from(cell != Cell::ROOT);
+                if u32::from(cell.depth) >= levels {
+                    r.findings.push(format!("{sub_at}: tile {cell:?} lies below availableLevels {levels}"));
+                }
+                if parent_bit.is_some_and(|b| !sub.tiles.get(b)) {
+                    r.findings.push(format!("{sub_at}: tile {cell:?} is available but its parent is not"));
+                }
+                if let (true, Some(template)) = (has_content, content) {
+                    let uri = implicit::fill(template, cell);
+                    match resolve(dir, &uri) {
+                        Err(why) => r.findings.push(format!("{sub_at}: content uri '{uri}' {why}")),
+                        Ok(file) => match glb_problem(&file) {
+                            Some(why) => r.findings.push(format!("{sub_at}: content '{uri}' {why}")),
+                            None => r.contents.push(file),
+                        },
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -18,6 +18,8 @@
 //! * Contents are written as they are made, with the glTF writer of `octowrap-export`
 //!   (`KHR_mesh_quantization` and `EXT_meshopt_compression` on request); only each tile's box,
 //!   error and size stay in memory until `tileset.json` is written, last.
+//! * With [`TilesOptions::implicit`], the tiles below the coarsest cut level are an implicit
+//!   octree (3D Tiles 1.1 §6.8): subtree files with availability bitstreams ([`implicit`]).
 //! * Georeferencing ([`georef`]): with a CRS, positions go to a local east-north-up frame in
 //!   metres at the data's centre and the root tile's `transform` takes that frame to
 //!   Earth-centred coordinates (EPSG:4978); without one, the frame is the input's own, its origin
@@ -50,6 +52,7 @@
 pub mod check;
 mod content;
 pub mod georef;
+pub mod implicit;
 pub mod partition;
 pub mod tileset;
 mod write;
@@ -112,6 +115,9 @@ pub struct TilesOptions {
     pub metadata: Vec<(String, String)>,
     /// Refuse to replace an existing `tileset.json`. Default: off.
     pub no_clobber: bool,
+    /// Implicit tiling below the coarsest cut level ([`implicit`]): subtree files instead of
+    /// explicit tiles. Default: off.
+    pub implicit: bool,
 }
 
 impl Default for TilesOptions {
@@ -124,6 +130,7 @@ impl Default for TilesOptions {
             flange: true,
             metadata: Vec::new(),
             no_clobber: false,
+            implicit: false,
         }
     }
 }

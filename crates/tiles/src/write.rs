@@ -8,8 +8,9 @@ use rayon::prelude::*;
 
 use crate::content::{LevelGeometry, subset};
 use crate::georef::{Frame, Georeference};
-use crate::partition::{Partition, TileTree};
-use crate::tileset::{Asset, BoundingVolume, Content, Tile, Tileset};
+use crate::implicit;
+use crate::partition::{Cell, Partition, TileTree};
+use crate::tileset::{Asset, BoundingVolume, Content, ImplicitTiling, Subtrees, Tile, Tileset};
 use crate::{Error, Summary, TilesOptions};
 
 /// Moves every position into the tileset's local frame; returns the root transform (column-major)
@@ -75,6 +76,7 @@ pub(crate) fn write_tileset(
     let (world_from_local, frame_text) = place(&mut h, frame)?;
     let tree = opts.partition.tiles(&h)?;
     let finest = h.levels.len() - 1;
+    let implicit = opts.implicit.then(|| Implicit::of(&tree));
     let mut export = octowrap_export::ExportOptions::default();
     export.quantize = opts.quantize;
     export.meshopt = opts.meshopt;
@@ -119,7 +121,7 @@ pub(crate) fn write_tileset(
                     mesh.vertices.positions.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect::<Vec<_>>().iter(),
                 );
                 let (glb, _) = octowrap_export::to_glb(&Hierarchy::single(mesh), &export)?;
-                let file = dir.join(content_uri(&tree, i));
+                let file = dir.join(content_uri(&tree, i, implicit.as_ref()));
                 let shown = file.display().to_string();
                 if let Some(parent) = file.parent() {
                     std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
@@ -144,7 +146,25 @@ pub(crate) fn write_tileset(
             made[i].bounds = made[i].bounds.union(&child.bounds);
         }
     }
-    let mut root = tile_json(&tree, &made, 0);
+    let mut subtree_bytes = 0;
+    if let Some(imp) = &implicit {
+        // The implicit root: the cube, and the error that halves per level without falling
+        // under any implicit tile's measured one; the explicit tiles above it hold both.
+        let root_error = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].level >= imp.base)
+            .map(|i| made[i].error * f64::from(1u32 << tree.nodes[i].cell.depth))
+            .fold(0.0, f64::max);
+        let mut i = imp.root;
+        made[i].error = root_error;
+        made[i].bounds = made[i].bounds.union(&tree.cube);
+        while let Some(p) = (0..i).rev().find(|&p| tree.nodes[p].children.contains(&i)) {
+            made[p].error = made[p].error.max(made[i].error);
+            made[p].bounds = made[p].bounds.union(&made[i].bounds);
+            i = p;
+        }
+        subtree_bytes = write_subtrees(&dir, &tree, imp)?;
+    }
+    let mut root = tile_json(&tree, &made, 0, implicit.as_ref());
     root.refine = Some("REPLACE".to_owned());
     root.transform = Some(world_from_local.to_vec());
     let diagonal = made[0].bounds.diagonal();
@@ -173,31 +193,113 @@ pub(crate) fn write_tileset(
         tiles: tree.nodes.len(),
         content_tiles: tree.nodes.iter().filter(|n| !n.faces.is_empty()).count(),
         levels: h.levels.len(),
-        bytes: made.iter().map(|m| m.bytes).sum::<u64>() + json.len() as u64,
+        bytes: made.iter().map(|m| m.bytes).sum::<u64>() + json.len() as u64 + subtree_bytes,
         root_error: made[0].error,
         frame: frame_text,
     })
 }
 
-/// `tiles/LEVEL/DEPTH-X-Y-Z.glb`.
-fn content_uri(tree: &TileTree, i: usize) -> String {
+/// Implicit tiling's place in the tree: the implicit root and its level.
+struct Implicit {
+    /// The hierarchy level of implicit level 0.
+    base: usize,
+    /// The implicit root's node.
+    root: usize,
+    /// Implicit levels (the deepest cell depth + 1).
+    levels: u8,
+    /// Levels per subtree file.
+    subtree_levels: u8,
+    /// `(cell, node)` of every implicit tile, sorted by cell.
+    cells: Vec<(Cell, usize)>,
+}
+
+/// Levels per subtree file (fewer when the tree has fewer).
+const SUBTREE_LEVELS: u8 = 3;
+const CONTENT_TEMPLATE: &str = "implicit/{level}/{x}-{y}-{z}.glb";
+const SUBTREE_TEMPLATE: &str = "subtrees/{level}/{x}-{y}-{z}.subtree";
+
+impl Implicit {
+    fn of(tree: &TileTree) -> Self {
+        // The cut starts below the deepest tile over the whole cube.
+        let root = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].cell == Cell::ROOT)
+            .max_by_key(|&i| tree.nodes[i].level)
+            .expect("the root tile covers the cube");
+        let base = tree.nodes[root].level;
+        let mut cells: Vec<(Cell, usize)> =
+            (0..tree.nodes.len()).filter(|&i| tree.nodes[i].level >= base).map(|i| (tree.nodes[i].cell, i)).collect();
+        cells.sort_unstable();
+        let levels = cells.iter().map(|(c, _)| c.depth).max().unwrap_or(0) + 1;
+        Self { base, root, levels, subtree_levels: SUBTREE_LEVELS.min(levels), cells }
+    }
+
+    fn node(&self, cell: Cell) -> Option<usize> {
+        self.cells.binary_search_by(|(c, _)| c.cmp(&cell)).ok().map(|k| self.cells[k].1)
+    }
+}
+
+/// Writes every subtree file; returns their bytes.
+fn write_subtrees(dir: &Path, tree: &TileTree, imp: &Implicit) -> Result<u64, Error> {
+    let available = |c: Cell| imp.node(c).map(|i| !tree.nodes[i].faces.is_empty());
+    let mut bytes = 0;
+    let mut roots = vec![Cell::ROOT];
+    while let Some(r) = roots.pop() {
+        let (subtree, children) = implicit::build(r, imp.subtree_levels, &available);
+        let data = subtree.to_bytes();
+        let file = dir.join(implicit::fill(SUBTREE_TEMPLATE, r));
+        let shown = file.display().to_string();
+        if let Some(parent) = file.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
+        }
+        octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&data))
+            .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| Error::io(&shown, e))?;
+        bytes += data.len() as u64;
+        roots.extend(children.into_iter().rev());
+    }
+    Ok(bytes)
+}
+
+/// `tiles/LEVEL/DEPTH-X-Y-Z.glb`, or under implicit tiling `implicit/DEPTH/X-Y-Z.glb` below
+/// the implicit root.
+fn content_uri(tree: &TileTree, i: usize, implicit: Option<&Implicit>) -> String {
     let n = &tree.nodes[i];
+    if implicit.is_some_and(|imp| n.level >= imp.base) {
+        return implicit::fill(CONTENT_TEMPLATE, n.cell);
+    }
     let [x, y, z] = n.cell.xyz;
     format!("tiles/{}/{}-{x}-{y}-{z}.glb", n.level, n.cell.depth)
 }
 
-fn tile_json(tree: &TileTree, made: &[Made], i: usize) -> Tile {
+fn tile_json(tree: &TileTree, made: &[Made], i: usize, implicit: Option<&Implicit>) -> Tile {
     let m = made[i];
     let b = if m.bounds.is_empty() { Aabb { min: DVec3::ZERO, max: DVec3::ZERO } } else { m.bounds };
-    Tile {
+    let mut tile = Tile {
         bounding_volume: BoundingVolume::aligned_box(b.min.to_array(), b.max.to_array()),
         geometric_error: m.error,
         refine: None,
         transform: None,
-        content: (!tree.nodes[i].faces.is_empty())
-            .then(|| Content { uri: content_uri(tree, i), other: std::collections::BTreeMap::default() }),
+        content: (!tree.nodes[i].faces.is_empty()).then(|| Content {
+            uri: content_uri(tree, i, implicit),
+            other: std::collections::BTreeMap::default(),
+        }),
         implicit_tiling: None,
-        children: tree.nodes[i].children.iter().map(|&c| tile_json(tree, made, c)).collect(),
+        children: Vec::new(),
         other: std::collections::BTreeMap::default(),
+    };
+    match implicit {
+        Some(imp) if imp.root == i => {
+            // Implicit tiles subdivide this tile's volume: the octree cube itself.
+            let c = tree.cube;
+            tile.bounding_volume = BoundingVolume::aligned_box(c.min.to_array(), c.max.to_array());
+            tile.content = Some(Content { uri: CONTENT_TEMPLATE.to_owned(), other: std::collections::BTreeMap::default() });
+            tile.implicit_tiling = Some(ImplicitTiling {
+                subdivision_scheme: "OCTREE".to_owned(),
+                subtree_levels: u32::from(imp.subtree_levels),
+                available_levels: u32::from(imp.levels),
+                subtrees: Subtrees { uri: SUBTREE_TEMPLATE.to_owned() },
+            });
+        }
+        _ => tile.children = tree.nodes[i].children.iter().map(|&c| tile_json(tree, made, c, implicit)).collect(),
     }
+    tile
 }

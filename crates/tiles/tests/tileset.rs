@@ -174,3 +174,56 @@ fn no_cracks_between_tiles_at_different_levels() {
     assert!(without > 0.0005, "without the flange the view must crack ({:.4} %)", without * 100.0);
     assert!(fraction <= 0.0005, "{:.4} % of the model's pixels are cracks", fraction * 100.0);
 }
+
+#[test]
+fn implicit_tiling_passes_the_spec_checks_and_a_broken_subtree_is_reported() {
+    let h = cube_hierarchy(6, Edits::default(), 7);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tileset.json");
+    let mut opts = options(96);
+    opts.implicit = true;
+    let explicit = write_tileset(&dir.path().join("explicit.json"), h.clone(), &Frame::Local, &options(96)).unwrap();
+    let summary = write_tileset(&path, h.clone(), &Frame::Local, &opts).unwrap();
+    let report = check_tileset(&path).unwrap();
+    assert!(report.findings.is_empty(), "{:#?}", report.findings);
+    // The same tiles, listed by the subtrees instead of the JSON.
+    assert_eq!(report.tiles, explicit.tiles);
+    assert_eq!(report.contents.len(), explicit.content_tiles);
+    assert_eq!(summary.content_tiles, explicit.content_tiles);
+    let ts = read_tileset(&path);
+    fn implicit_root(t: &Tile) -> Option<&Tile> {
+        if t.implicit_tiling.is_some() { Some(t) } else { t.children.iter().find_map(implicit_root) }
+    }
+    let root = implicit_root(&ts.root).expect("an implicit root");
+    let imp = root.implicit_tiling.as_ref().unwrap();
+    assert_eq!((imp.subdivision_scheme.as_str(), imp.subtree_levels), ("OCTREE", 3));
+    assert!(imp.available_levels > 3, "more than one subtree level: {imp:?}");
+    // Every implicit tile's error (the root's halved per level) is at least its measured one,
+    // which the explicit tileset records per tile.
+    let ex = read_tileset(&dir.path().join("explicit.json"));
+    fn walk<'a>(t: &'a Tile, out: &mut Vec<&'a Tile>) {
+        out.push(t);
+        t.children.iter().for_each(|c| walk(c, out));
+    }
+    let mut all = Vec::new();
+    walk(&ex.root, &mut all);
+    for t in all {
+        // tiles/LEVEL/DEPTH-X-Y-Z.glb: the tiles below the implicit root have a positive depth.
+        if let Some(c) = &t.content {
+            let depth: i32 = c.uri.rsplit('/').next().unwrap().split('-').next().unwrap().parse().unwrap();
+            let implicit_error = root.geometric_error / 2f64.powi(depth);
+            assert!(depth == 0 || implicit_error >= t.geometric_error, "{}: {implicit_error} < {}", c.uri, t.geometric_error);
+        }
+    }
+    support::validate_gltf(&path);
+    // A tile whose parent is missing, a truncated subtree, and a missing content are found.
+    let sub = dir.path().join("subtrees/0/0-0-0.subtree");
+    let bytes = std::fs::read(&sub).unwrap();
+    std::fs::write(&sub, &bytes[..bytes.len() - 1]).unwrap();
+    let f = check_tileset(&path).unwrap().findings;
+    assert!(f.iter().any(|m| m.contains("subtree subtrees/0/0-0-0.subtree") && m.contains("do not fill")), "{f:#?}");
+    std::fs::write(&sub, &bytes).unwrap();
+    std::fs::remove_file(dir.path().join("implicit/1/0-0-0.glb")).unwrap();
+    let f = check_tileset(&path).unwrap().findings;
+    assert!(f.iter().any(|m| m.contains("implicit/1/0-0-0.glb") && m.contains("does not resolve")), "{f:#?}");
+}

@@ -35,7 +35,9 @@ use crate::progress;
 /// level over its region; a flange of neighbouring faces against cracks). An MRQ file that
 /// records a CRS (reconstruct keeps the one a LAS/LAZ/E57 input declares) is placed on the globe
 /// (EPSG:4978); otherwise the tileset is in a local frame. --quantize and --meshopt apply to the
-/// tiles. A mesh input becomes one tile.
+/// tiles. A mesh input becomes one tile. --implicit writes the octree levels as implicit tiling
+/// (subtrees/ beside tileset.json; their geometric error halves per level from a root error chosen
+/// to stay at or above every tile's measured one).
 ///
 /// Exit codes: 0 written; 2 the input could not be read or exported (nothing is written then).
 ///
@@ -45,7 +47,7 @@ use crate::progress;
 ///   octowrap export part.stl -o part.gltf --crease-angle 30
 ///   octowrap export bunny.ply -o bunny.glb --no-colors
 ///   octowrap export autzen.mrq -o tiles/tileset.json --meshopt --quantize
-///   octowrap export kitten.mrq -o kitten/tileset.json --tile-faces 1000
+///   octowrap export kitten.mrq -o kitten/tileset.json --tile-faces 1000 --implicit
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 #[allow(clippy::doc_markdown)] // the help text names glTF extensions, not Rust items
@@ -84,6 +86,10 @@ pub struct Args {
     /// (default 16384; a positive number).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub tile_faces: Option<u32>,
+    /// Tilesets only: the tiles below the coarsest cut level as 3D Tiles 1.1 implicit tiling (an
+    /// octree described by subtree files with availability bitstreams) instead of explicit JSON.
+    #[arg(long)]
+    pub implicit: bool,
     #[command(flatten)]
     pub input_args: InputArgs,
     #[command(flatten)]
@@ -121,8 +127,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if super::tileset::is_tileset(args) {
         return super::tileset::run(args);
     }
-    if args.tile_faces.is_some() {
-        bail!("--tile-faces is a tileset option: give an output ending in .json");
+    if args.tile_faces.is_some() || args.implicit {
+        bail!("--tile-faces and --implicit are tileset options: give an output ending in .json");
     }
     let gz = octowrap_fsutil::is_gz(&args.output);
     let container = octowrap_export::Container::from_path(&octowrap_fsutil::without_gz(&args.output));

@@ -29,6 +29,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     opts.meshopt = args.meshopt;
     opts.colors = !args.no_colors;
     opts.no_clobber = args.clobber.no_clobber;
+    opts.implicit = args.implicit;
     if let Some(n) = args.tile_faces {
         let mut p = octowrap_tiles::OctreePartition::default();
         p.target_faces = n as usize;
