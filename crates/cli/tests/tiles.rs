@@ -1,6 +1,6 @@
 //! `octowrap export X.mrq -o DIR/tileset.json` as a user runs it on reconstructed hierarchies:
 //! the spec checks, the Khronos glTF-Validator on every tile, both browser clients
-//! (3DTilesRendererJS and CesiumJS in headless Chromium: far tiles coarse, near tiles finest, no
+//! (`3DTilesRendererJS` and `CesiumJS` in headless Chromium: far tiles coarse, near tiles finest, no
 //! console errors, no cracks in pixels), and the autzen LiDAR tile set on the globe where pyproj
 //! puts it. Artefacts (tilesets, screenshots) stay under `target/tiles-artefacts/`.
 #![allow(clippy::print_stdout)]
@@ -156,9 +156,9 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// The done-means: `reconstruct autzen_trim.laz -o a.mrq && export a.mrq -o
 /// tiles/tileset.json`. The MRQ keeps the CRS; the root transform's origin and the finest tiles'
 /// vertices land within 0.05 m of where pyproj puts the same points in Earth-centred coordinates;
-/// CesiumJS draws the tileset on the globe there, and both clients refine it.
+/// `CesiumJS` draws the tileset on the globe there, and both clients refine it.
 #[test]
-#[allow(clippy::too_many_lines)] // one pipeline, checked stage by stage
+#[allow(clippy::too_many_lines, clippy::items_after_statements)] // one pipeline, checked stage by stage
 fn autzen_tiles_land_where_pyproj_puts_them() {
     let Some(laz) = octowrap_testdata::file("lidar-las/autzen_trim.laz") else {
         return octowrap_testdata::skip("lidar-las/autzen_trim.laz");
@@ -250,6 +250,7 @@ fn implicit_level(t: &Value) -> u64 {
 /// `--implicit`: the same kitten as implicit tiling passes the spec checks (subtrees walked) and
 /// the validator, and both clients expand the subtrees and refine by distance.
 #[test]
+#[allow(clippy::items_after_statements)]
 fn kitten_implicit_tileset_refines_in_both_clients() {
     let dir = clients::artefacts("kitten-implicit");
     let mrq = dir.join("kitten.mrq");

@@ -176,6 +176,7 @@ fn no_cracks_between_tiles_at_different_levels() {
 }
 
 #[test]
+#[allow(clippy::items_after_statements)]
 fn implicit_tiling_passes_the_spec_checks_and_a_broken_subtree_is_reported() {
     let h = cube_hierarchy(6, Edits::default(), 7);
     let dir = tempfile::tempdir().unwrap();
@@ -216,7 +217,15 @@ fn implicit_tiling_passes_the_spec_checks_and_a_broken_subtree_is_reported() {
         }
     }
     support::validate_gltf(&path);
-    // A tile whose parent is missing, a truncated subtree, and a missing content are found.
+    // Same bytes whatever the thread count (the explicit tileset beside it included).
+    let again = tempfile::tempdir().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    pool.install(|| {
+        write_tileset(&again.path().join("explicit.json"), h.clone(), &Frame::Local, &options(96)).unwrap();
+        write_tileset(&again.path().join("tileset.json"), h, &Frame::Local, &opts).unwrap();
+    });
+    assert_eq!(all_files(dir.path()), all_files(again.path()));
+    // A truncated subtree and a missing content are found.
     let sub = dir.path().join("subtrees/0/0-0-0.subtree");
     let bytes = std::fs::read(&sub).unwrap();
     std::fs::write(&sub, &bytes[..bytes.len() - 1]).unwrap();

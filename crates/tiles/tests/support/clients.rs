@@ -1,5 +1,5 @@
 //! The two browser clients as a test runs them: `tools/tiles-check/check-clients.mjs` opens a
-//! tileset in 3DTilesRendererJS and CesiumJS in headless Chromium and reports the tiles each
+//! tileset in `3DTilesRendererJS` and `CesiumJS` in headless Chromium and reports the tiles each
 //! drew at a far and a near view, the pixel crack measure, console errors and screenshots.
 //! Without node, the npm modules or Chromium the check prints SKIPPED (a failure under
 //! `OCTOWRAP_TILES_CHECKS=required`, as `.ci/run` sets it once they are installed).
