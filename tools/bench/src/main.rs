@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation, fuzzing, the Python package); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, fuzzing, the Python package); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -27,6 +27,7 @@ mod python;
 mod recon;
 mod results;
 mod stages;
+mod tiles;
 mod util;
 mod validate;
 
@@ -60,6 +61,7 @@ fn main() -> std::process::ExitCode {
         ("accuracy", accuracy::report),
         ("validate", validate::report),
         ("decimate", decimate::report),
+        ("tiles", tiles::report),
         ("fuzz", fuzz::report),
         ("python", python::report),
     ];

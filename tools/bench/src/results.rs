@@ -21,6 +21,7 @@ pub const AREAS: [(&str, &str); 8] = [
     ("accuracy", "Accuracy: MRQ on decoder lines against free positions"),
     ("validate", "Validator"),
     ("decimate", "Decimation"),
+    ("tiles", "3D Tiles export"),
     ("fuzz", "Fuzzing: the last tools/fuzz campaign"),
     ("python", "Python package: `import octowrap` against the library and the command line"),
 ];

@@ -1,0 +1,135 @@
+//! The 3D Tiles area: `octowrap export X.mrq -o DIR/tileset.json` beside `export --levels all`
+//! (one GLB with every level) on the dragon's hierarchy: wall time, files and bytes written, and
+//! the peak resident memory of the `octowrap` child process.
+//!
+//! The binary is `target/release/octowrap` (or `OCTOWRAP_BIN`); build it first with
+//! `cargo build --release -p octowrap-cli`. Peak memory is the child's `ru_maxrss`, read by a
+//! small Python wrapper around the run (`resource.getrusage(RUSAGE_CHILDREN)`), so it is the
+//! export's own peak, not the bench's.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::util::{headline, shared_data};
+
+fn binary() -> Option<PathBuf> {
+    let p = std::env::var_os("OCTOWRAP_BIN")
+        .map_or_else(|| octowrap_testdata::workspace_root().join("target/release/octowrap"), PathBuf::from);
+    p.is_file().then_some(p)
+}
+
+/// Runs `bin args`; its wall seconds and peak RSS in bytes, or why it failed.
+fn measured(bin: &Path, args: &[&str]) -> Result<(f64, u64), String> {
+    let script = "import resource, subprocess, sys, time\n\
+                  t = time.perf_counter()\n\
+                  r = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)\n\
+                  dt = time.perf_counter() - t\n\
+                  if r.returncode != 0:\n    sys.stderr.buffer.write(r.stderr); sys.exit(1)\n\
+                  print(dt, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n";
+    let o = Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .arg(bin)
+        .args(args)
+        .output()
+        .map_err(|e| format!("python3: {e}"))?;
+    if !o.status.success() {
+        return Err(String::from_utf8_lossy(&o.stderr).into_owned());
+    }
+    let text = String::from_utf8_lossy(&o.stdout);
+    let mut it = text.split_whitespace();
+    let secs: f64 = it.next().and_then(|s| s.parse().ok()).ok_or("no time")?;
+    let kb: u64 = it.next().and_then(|s| s.parse().ok()).ok_or("no rss")?;
+    Ok((secs, kb * 1024))
+}
+
+fn tree_size(dir: &Path) -> (usize, u64) {
+    let mut files = 0;
+    let mut bytes = 0;
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                files += 1;
+                bytes += e.metadata().map_or(0, |m| m.len());
+            }
+        }
+    }
+    (files, bytes)
+}
+
+/// Best of `runs` of `args`: (seconds, peak bytes of that run).
+fn best(bin: &Path, args: &[&str], runs: usize, before: impl Fn()) -> Result<(f64, u64), String> {
+    let mut out = (f64::INFINITY, 0);
+    for _ in 0..runs {
+        before();
+        let r = measured(bin, args)?;
+        if r.0 < out.0 {
+            out = r;
+        }
+    }
+    Ok(out)
+}
+
+pub fn report() {
+    outln!("## 3D Tiles export");
+    outln!();
+    let Some(data) = shared_data() else {
+        outln!("(skipped: ../shared/data is absent)");
+        return;
+    };
+    let Some(bin) = binary() else {
+        outln!("(skipped: target/release/octowrap is missing: cargo build --release -p octowrap-cli, or set OCTOWRAP_BIN)");
+        return;
+    };
+    let work = std::env::temp_dir().join(format!("octowrap-bench-tiles-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).expect("the temporary folder is writable");
+    let s = |p: &Path| p.display().to_string();
+    let dragon = data.join("stanford-dragon/dragon_vrip.ply.gz");
+    let mrq = work.join("dragon.mrq");
+    if let Err(e) = measured(&bin, &["reconstruct", &s(&dragon), "-o", &s(&mrq)]) {
+        outln!("(skipped: reconstructing the dragon failed: {e})");
+        return;
+    }
+    let decoded = octowrap_format::read_path(&mrq, &octowrap_format::DecodeOptions::default()).ok();
+    let (levels, faces) = decoded.map_or((0, 0), |f| {
+        (f.hierarchy.levels.len(), f.hierarchy.levels.iter().map(|l| l.mesh.faces.len()).sum::<usize>())
+    });
+    outln!(
+        "The dragon (dragon_vrip, `octowrap reconstruct` defaults): {levels} levels, {faces} faces in all, MRQ {} bytes. \
+         Wall seconds, best of 3, {} cores; peak memory is the child process's resident set.",
+        std::fs::metadata(&mrq).map_or(0, |m| m.len()),
+        crate::util::cores()
+    );
+    outln!();
+    outln!("| case | seconds | files | bytes | peak memory |");
+    outln!("|---|---|---|---|---|");
+    let tiles_dir = work.join("tiles");
+    let tileset = tiles_dir.join("tileset.json");
+    let glb = work.join("dragon.glb");
+    let cases: [(&str, Vec<String>, &Path); 2] = [
+        ("export --levels all (one GLB)", vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()], &glb),
+        ("export -o tiles/tileset.json", vec!["export".into(), s(&mrq), "-o".into(), s(&tileset)], &tiles_dir),
+    ];
+    for (name, args, out) in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let clean = || {
+            let _ = std::fs::remove_dir_all(&tiles_dir);
+            let _ = std::fs::remove_file(&glb);
+        };
+        match best(&bin, &args, 3, clean) {
+            Ok((secs, peak)) => {
+                let (files, bytes) = if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
+                outln!("| {name} | {secs:.3} | {files} | {bytes} | {:.1} MB |", peak as f64 / 1e6);
+                headline(format!("dragon, {name}: time"), format!("{secs:.3} s"), "–", None);
+                headline(format!("dragon, {name}: files, bytes, peak memory"), format!("{files}, {bytes} B, {:.1} MB", peak as f64 / 1e6), "–", None);
+            }
+            Err(e) => outln!("| {name} | failed: {} | | | |", e.trim()),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&work);
+}
