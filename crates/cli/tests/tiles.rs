@@ -289,3 +289,25 @@ fn kitten_implicit_tileset_refines_in_both_clients() {
         r["cesium"]["seconds"].as_f64().unwrap()
     );
 }
+
+/// Tileset options on a glTF output, and a zero face target, exit 2 naming the option; nothing
+/// is written.
+#[test]
+fn tileset_options_elsewhere_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let mrq = common::root().join("fixtures/format/valid/cube3_lattice_q12.mrq");
+    let glb = dir.path().join("a.glb");
+    for extra in [&["--implicit"][..], &["--tile-faces", "100"][..]] {
+        let mut args = vec!["export", s(&mrq), "-o", s(&glb)];
+        args.extend_from_slice(extra);
+        let o = octowrap(&args);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", text(&o.stderr));
+        assert!(text(&o.stderr).contains("tileset options"), "{}", text(&o.stderr));
+        assert!(!glb.exists());
+    }
+    let json = dir.path().join("t/tileset.json");
+    let o = octowrap(&["export", s(&mrq), "-o", s(&json), "--tile-faces", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("--tile-faces"), "{}", text(&o.stderr));
+    assert!(!json.exists());
+}
