@@ -5,12 +5,14 @@
 //! The writer's mapping: the octree partition's cut levels ([`crate::partition`]) are the implicit
 //! levels. The tile of hierarchy level `base` over the whole cube is the implicit root (implicit
 //! level 0); the tile of level `base + d` in cell `(d, x, y, z)` is the implicit tile at level `d`,
-//! coordinates `(x, y, z)`. Implicit tiles' volumes are the subdivided cube, not tight boxes, and
-//! their geometric error halves per level from the root's (§6.8.2), so the root's is chosen as the
+//! coordinates `(x, y, z)`. Implicit tiles' volumes are the subdivided cube, not tight boxes (a
+//! tile's faces can reach past its cell by part of a face, since a face goes to the cell of its
+//! centroid: a client culling by the cell may drop such a sliver at the very edge of the view), and
+//! their geometric error halves per level from the root's, so the root's is chosen as the
 //! smallest that keeps every implicit tile's error at or above its measured one:
 //! `max over levels d of (largest measured error at d) * 2^d`.
 //!
-//! # Subtree files (§6.8.4, binary `.subtree`)
+//! # Subtree files (binary `.subtree`)
 //! | bytes | field |
 //! |---|---|
 //! | 4 | magic `subt` |
