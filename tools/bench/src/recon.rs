@@ -172,7 +172,7 @@ fn load(relative: &str) -> Option<Vec<DVec3>> {
 
 /// Options to `level`; `relax`: `None` for the default relaxation, or that many passes on
 /// every level.
-fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
+pub fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
     let mut o = ReconOptions::default();
     o.max_level = MaxLevel::Level(level);
     if let Some(passes) = relax {
@@ -182,7 +182,7 @@ fn opts(level: u32, relax: Option<u32>) -> ReconOptions {
     o
 }
 
-fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
+pub fn run(points: &[DVec3], o: &ReconOptions) -> Reconstruction {
     reconstruct_with_progress(points, o, &mut |_| {}).expect("reconstructs")
 }
 

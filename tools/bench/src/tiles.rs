@@ -1,6 +1,7 @@
 //! The 3D Tiles area: `octowrap export X.mrq -o DIR/tileset.json` beside `export --levels all`
-//! (one GLB with every level) on the dragon's hierarchy: wall time, files and bytes written, and
-//! the peak resident memory of the `octowrap` child process.
+//! (one GLB with every level) on the dragon's hierarchy and, with `OCTOWRAP_BENCH_TILES_LARGE=1`,
+//! on the recon area's 4.3 M-point case: wall time, files and bytes written, and the peak
+//! resident memory of the `octowrap` child process (beside the decoded hierarchy's size).
 //!
 //! The binary is `target/release/octowrap` (or `OCTOWRAP_BIN`); build it first with
 //! `cargo build --release -p octowrap-cli`. Peak memory is the child's `ru_maxrss`, read by a
@@ -131,5 +132,83 @@ pub fn report() {
             Err(e) => outln!("| {name} | failed: {} | | | |", e.trim()),
         }
     }
+    if std::env::var_os("OCTOWRAP_BENCH_TILES_LARGE").is_some() {
+        large_case(&bin, &dragon, &work);
+    } else {
+        outln!();
+        outln!("(the 4.3 M case runs with OCTOWRAP_BENCH_TILES_LARGE=1: a few minutes)");
+    }
     let _ = std::fs::remove_dir_all(&work);
+}
+
+/// Bytes the decoded hierarchy holds in memory: f64 positions, u32 face indices and offsets,
+/// and one parent link per face.
+fn decoded_bytes(h: &octowrap_mesh::Hierarchy) -> u64 {
+    h.levels
+        .iter()
+        .map(|l| {
+            let m = &l.mesh;
+            (m.vertices.positions.len() * 24 + m.faces.iter().map(|f| f.len() * 4 + 4).sum::<usize>() + m.faces.len() * 8)
+                as u64
+        })
+        .sum()
+}
+
+/// The recon area's large case (the dragon resampled to 4.3 M points with noise, to level 10),
+/// encoded as MRQ, then each export once.
+fn large_case(bin: &Path, dragon: &Path, work: &Path) {
+    let s = |p: &Path| p.display().to_string();
+    let Ok(m) = octowrap_io::read_path(dragon, &octowrap_io::ReadOptions::default()) else {
+        outln!("(4.3 M case skipped: the dragon cannot be read)");
+        return;
+    };
+    let diag = m.vertices.bounds().diagonal();
+    let pts = crate::recon::resample(&m, 4_300_000, 2e-4 * diag);
+    drop(m);
+    let r = crate::recon::run(&pts, &crate::recon::opts(10, None));
+    drop(pts);
+    let mrq = work.join("large.mrq");
+    if let Err(e) = octowrap_format::write_path(&mrq, &r.hierarchy, &octowrap_format::EncodeOptions::default()) {
+        outln!("(4.3 M case skipped: {e})");
+        return;
+    }
+    let faces: usize = r.hierarchy.levels.iter().map(|l| l.mesh.faces.len()).sum();
+    let decoded = decoded_bytes(&r.hierarchy);
+    outln!();
+    outln!(
+        "4.3 M points (dragon resampled, noise 2e-4 diag) to level 10: {} levels, {faces} faces in all, MRQ {} bytes, decoded hierarchy {:.1} MB in memory. One run each.",
+        r.hierarchy.levels.len(),
+        std::fs::metadata(&mrq).map_or(0, |m| m.len()),
+        decoded as f64 / 1e6
+    );
+    drop(r);
+    outln!();
+    outln!("| case | seconds | files | bytes | peak memory | peak / decoded hierarchy |");
+    outln!("|---|---|---|---|---|---|");
+    let tiles_dir = work.join("large-tiles");
+    let glb = work.join("large.glb");
+    let cases: [(&str, Vec<String>, &Path); 2] = [
+        ("export --levels all (one GLB)", vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()], &glb),
+        ("export -o tiles/tileset.json", vec!["export".into(), s(&mrq), "-o".into(), s(&tiles_dir.join("tileset.json"))], &tiles_dir),
+    ];
+    for (name, args, out) in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        match measured(bin, &args) {
+            Ok((secs, peak)) => {
+                let (files, bytes) = if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
+                let ratio = peak as f64 / decoded as f64;
+                outln!("| {name} | {secs:.1} | {files} | {bytes} | {:.0} MB | {ratio:.2} |", peak as f64 / 1e6);
+                headline(format!("4.3 M case, {name}: time"), format!("{secs:.1} s"), "–", None);
+                // Issue 21 asks the tileset export's peak to stay well under the decoded size.
+                let tiles = name.contains("tileset");
+                headline(
+                    format!("4.3 M case, {name}: files, bytes, peak memory (of the decoded hierarchy)"),
+                    format!("{files}, {bytes} B, {:.0} MB ({ratio:.2}x)", peak as f64 / 1e6),
+                    if tiles { "< 1x the decoded hierarchy" } else { "–" },
+                    tiles.then_some(ratio < 1.0),
+                );
+            }
+            Err(e) => outln!("| {name} | failed: {} | | | | |", e.trim()),
+        }
+    }
 }
