@@ -54,7 +54,7 @@ fn main() -> std::process::ExitCode {
     println!();
     println!("{}", util::machine_line());
     println!();
-    let sections: [(&str, fn()); 8] = [
+    let sections: &[(&str, fn())] = &[
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
@@ -65,7 +65,7 @@ fn main() -> std::process::ExitCode {
         ("fuzz", fuzz::report),
         ("python", python::report),
     ];
-    for (name, report) in sections {
+    for &(name, report) in sections {
         if !(wanted.is_empty() || wanted.iter().any(|w| *w == name)) {
             continue;
         }

@@ -14,7 +14,7 @@ use std::process::Command;
 use crate::util::{Capture, Headline};
 
 /// The areas in page order: key (the section name on the command line) and title.
-pub const AREAS: [(&str, &str); 8] = [
+pub const AREAS: &[(&str, &str)] = &[
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
@@ -171,7 +171,7 @@ pub fn write(area: &str, info: &RunInfo, capture: &Capture) -> std::io::Result<P
 /// in [`AREAS`] order; text outside the blocks is the bench's header).
 fn page(old: &str, area: &str, block: &str) -> String {
     let mut out = String::from(HEADER);
-    for (key, _) in AREAS {
+    for &(key, _) in AREAS {
         let text = if key == area { Some(block.to_owned()) } else { existing_block(old, key) };
         if let Some(t) = text {
             out.push('\n');
