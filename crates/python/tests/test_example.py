@@ -27,11 +27,10 @@ def run_example(cwd, env):
     for e in (errors, free):
         assert all(a > b for a, b in zip(e, e[1:])), e
         assert 0.0 < e[-1] < 0.005 < e[0] < 0.05, e
-    # The decoder lines cost accuracy, within bounds: a vertex moves onto its line only from a
-    # tenth of a voxel away, but the moves add up over the subdivided levels (on the bunny the
-    # finest, subdivided level is the farthest from the free one).
-    assert all(f * 0.99 <= a <= f * 1.5 for a, f in zip(errors, free)), (errors, free)
-    assert errors[:3] == pytest.approx(free[:3], rel=0.02), (errors, free)
+    # The decoder lines keep the levels near the free ones: a vertex goes onto its line only from
+    # within 0.3 voxel, and the fit's last passes make up for it (some levels come out closer
+    # to the points, the finest, subdivided level is the farthest, about +8 %).
+    assert all(f * 0.9 <= a <= f * 1.15 for a, f in zip(errors, free)), (errors, free)
     return lines, len(rows)
 
 
