@@ -430,8 +430,9 @@ def reconstruct(
     while it runs.
 
     The levels are built for the MRQ file :meth:`Hierarchy.save` writes, as the command line
-    builds them for ``-o x.mrq``: each refined vertex within a tenth of a voxel of the line the
-    decoder predicts it on goes onto that line (one number in the file), every vertex on the
+    builds them for ``-o x.mrq``: each refined vertex within 0.3 voxel of the line the decoder
+    predicts it on goes onto that line (one number in the file) and the fit's last passes move
+    it along the line only, every vertex on the
     file's grid of ``2**bits`` steps across the octree cube (``bits``: ``None`` for 64 steps per
     finest voxel, or 1 to 28, the command line's ``--bits``). ``keep_positions=True``
     (``--keep-positions``) leaves the vertices free: slightly closer to the points, a larger file.
