@@ -47,9 +47,10 @@ use crate::progress;
 /// octree cube whose step is a 64th of the finest level's voxel (2^(K+6) steps across the cube
 /// for finest level K), so that quantization adds at most about 1 % to any level's distance to
 /// the points; --bits or --step set another grid. For .mrq output the reconstruction computes
-/// every level as the MRQ decoder will see it: each refined vertex that lies within a tenth of a
-/// voxel of the line the decoder predicts it on (from the decoded level above) goes onto that
-/// line and costs one number, and every vertex lies on the grid, so the file decodes to exactly
+/// every level as the MRQ decoder will see it: each refined vertex that lies within 0.3 voxel of
+/// the line the decoder predicts it on (from the decoded level above) goes onto that line and
+/// costs one number (the fit's last passes move it along the line only, the free vertices
+/// around it in space), and every vertex lies on the grid, so the file decodes to exactly
 /// the levels reconstructed (and --all-levels writes the same positions). With --step (a grid
 /// not tied to the cube) the vertices slide onto their lines after the reconstruction instead.
 /// --keep-positions leaves every vertex free (each decoded within half a grid step).
