@@ -2,7 +2,7 @@
 // three.html) and CesiumJS (cesium.html), moves each camera to the far and the near view of
 // views.js, saves a screenshot of each, and prints one JSON object:
 //   { "<client>": { "placement": {...} (CesiumJS), "views": { "far": {frames, eye, tiles: [...]},
-//                   "near": {...} }, "cracks": {modelPixels, missingPixels, fraction} (three),
+//                   "near": {...} }, "cracks": {modelPixels, missingPixels, fraction, holePixels, holeFraction} (three),
 //                   "screenshots": [PATH...], "errors": [console errors and failed requests],
 //                   "warnings": [...], "seconds": N } }
 // Each drawn tile is {uri, geometricError, depth, leaf, distance} as the client reports it,

@@ -5,7 +5,10 @@
 //     loading and the drawn set is stable, and returns the drawn tiles (content URI, geometric
 //     error, tree depth, distance from the camera) and how many frames it took;
 //   cracks(name): at that view, the pixels a render of the finest level covers that the tiled
-//     view leaves empty, as a count and a fraction of the finest level's pixels.
+//     view leaves empty, as a count and a fraction of the finest level's pixels; and of those,
+//     the holes: the ones with the tiled view's surface on both sides within a few pixels (a gap
+//     in the surface), which leaves out where a coarser tile's silhouette differs from the
+//     finest level's.
 // The finest level's render is a second TilesRenderer on the same tileset with an error target of
 // zero, which draws only the tiles whose geometric error is 0: the finest level's tiles. Both
 // renders use one flat, front-face-only material, so a crack shows as an empty pixel (a back face
@@ -154,9 +157,15 @@ state.cracks = async (name) => {
     model += full[i];
     if (full[i] && !shown[i]) missing++;
   }
+  const inside = bridged(shown);
+  let holes = 0;
+  for (let i = 0; i < full.length; i++) {
+    if (full[i] && !shown[i] && inside[i]) holes++;
+  }
   renderer.render(scene, camera);
   // The picture of the measure: grey where both cover, white where the tiled view covers alone,
-  // red where only the finest level does (the cracks), rows flipped to the screen's order.
+  // red where only the finest level does inside the tiled view's surface (the holes), orange
+  // where it does at a silhouette; rows flipped to the screen's order.
   const canvas = document.createElement('canvas');
   canvas.width = SIZE;
   canvas.height = SIZE;
@@ -166,14 +175,49 @@ state.cracks = async (name) => {
     for (let x = 0; x < SIZE; x++) {
       const i = (SIZE - 1 - y) * SIZE + x;
       const o = (y * SIZE + x) * 4;
-      const c = full[i] && !shown[i] ? [255, 0, 0] : full[i] ? [128, 128, 128] : shown[i] ? [255, 255, 255] : [0, 0, 0];
+      const c = full[i] && !shown[i] ? (inside[i] ? [255, 0, 0] : [255, 160, 0]) : full[i] ? [128, 128, 128] : shown[i] ? [255, 255, 255] : [0, 0, 0];
       img.data.set([...c, 255], o);
     }
   }
   g.putImageData(img, 0, 0);
   const picture = canvas.toDataURL('image/png');
-  return { name, frames, modelPixels: model, missingPixels: missing, fraction: model ? missing / model : 0, finestTiles: levels.length, picture };
+  return {
+    name,
+    frames,
+    modelPixels: model,
+    missingPixels: missing,
+    fraction: model ? missing / model : 0,
+    holePixels: holes,
+    holeFraction: model ? holes / model : 0,
+    finestTiles: levels.length,
+    picture,
+  };
 };
+
+// Per pixel, whether the tiled view covers pixels on both sides of it within GAP pixels along
+// a row, a column or a diagonal: an empty pixel so bridged is a gap in the surface (a crack),
+// where one beside the background is the edge of a silhouette.
+const GAP = 6;
+function bridged(shown) {
+  const out = new Uint8Array(shown.length);
+  const at = (x, y) => x >= 0 && y >= 0 && x < SIZE && y < SIZE && shown[y * SIZE + x] === 1;
+  const reaches = (x, y, dx, dy) => {
+    for (let k = 1; k <= GAP; k++) if (at(x + k * dx, y + k * dy)) return true;
+    return false;
+  };
+  for (let y = 0; y < SIZE; y++) {
+    for (let x = 0; x < SIZE; x++) {
+      if (shown[y * SIZE + x]) continue;
+      for (const [dx, dy] of [[1, 0], [0, 1], [1, 1], [1, -1]]) {
+        if (reaches(x, y, dx, dy) && reaches(x, y, -dx, -dy)) {
+          out[y * SIZE + x] = 1;
+          break;
+        }
+      }
+    }
+  }
+  return out;
+}
 
 async function main() {
   if (!url) throw new Error('no ?tileset=URL');

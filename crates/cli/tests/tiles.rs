@@ -59,16 +59,20 @@ fn kitten_tileset_refines_in_both_clients_without_cracks() {
         clients::assert_refines(&r, client);
     }
     let c = &r["three"]["cracks"];
-    let fraction = c["fraction"].as_f64().unwrap();
+    let (holes, fraction) = (c["holeFraction"].as_f64().unwrap(), c["fraction"].as_f64().unwrap());
     assert!(c["modelPixels"].as_u64().unwrap() > 10_000, "the model fills the near view: {c}");
-    assert!(fraction <= 0.0005, "{:.4} % of the model's pixels are cracks: {c}", fraction * 100.0);
+    // Cracks are holes in the tiled view's surface; at its silhouette the coarser tiles of the
+    // view's far side may cover a little less than the finest level does, by design.
+    assert!(holes <= 0.0005, "{:.4} % of the model's pixels are cracks: {c}", holes * 100.0);
+    assert!(fraction <= 0.005, "{:.4} % of the model's pixels missing, silhouettes included: {c}", fraction * 100.0);
     println!(
-        "kitten: three {:.1} s, cesium {:.1} s; near view draws {} tiles; cracks {} of {} pixels; screenshots in {}",
+        "kitten: three {:.1} s, cesium {:.1} s; near view draws {} tiles; cracks {} of {} pixels ({} missing with the silhouettes); screenshots in {}",
         r["three"]["seconds"].as_f64().unwrap(),
         r["cesium"]["seconds"].as_f64().unwrap(),
         clients::drawn(&r, "three", "near").len(),
-        c["missingPixels"],
+        c["holePixels"],
         c["modelPixels"],
+        c["missingPixels"],
         dir.display()
     );
 }

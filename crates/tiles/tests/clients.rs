@@ -60,7 +60,10 @@ fn no_cracks_in_pixels_in_3d_tiles_renderer() {
     assert!(levels >= 3, "the view mixes {levels} levels");
     assert_eq!(with["modelPixels"], without["modelPixels"], "the same finest level from the same camera");
     assert!(with["modelPixels"].as_u64().unwrap() > 10_000, "{with}");
+    let holes = |c: &Value| c["holeFraction"].as_f64().unwrap();
     assert!(f(&without) > 0.0005, "without the flange the view must crack: {without}");
+    assert!(holes(&without) > 0.0005, "the cracks without the flange are holes in the surface: {without}");
+    assert!(holes(&with) <= f(&with), "holes are some of the missing pixels: {with}");
     assert!(f(&with) <= 0.0005, "{:.4} % of the model's pixels are cracks: {with}", f(&with) * 100.0);
     #[allow(clippy::print_stdout)]
     {
