@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, fuzzing, the Python package); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, fuzzing, the Python package, hostile input); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -22,6 +22,8 @@ mod accuracy;
 mod decimate;
 mod format;
 mod fuzz;
+#[cfg(unix)]
+mod hostile;
 mod io;
 mod python;
 mod recon;
@@ -37,6 +39,14 @@ mod validate;
 #[cfg(all(unix, not(target_env = "msvc")))]
 #[global_allocator]
 static ALLOC: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
+
+/// The hostile-input probe (`hostile.rs`), on Unix only (FIFOs, device nodes, modes, signals).
+fn hostile_report() {
+    #[cfg(unix)]
+    hostile::report();
+    #[cfg(not(unix))]
+    outln!("## Hostile input (issue 17)\n\nnot measured: the probe needs a Unix system\n");
+}
 
 fn main() -> std::process::ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -64,6 +74,7 @@ fn main() -> std::process::ExitCode {
         ("tiles", tiles::report),
         ("fuzz", fuzz::report),
         ("python", python::report),
+        ("hostile", hostile_report),
     ];
     for &(name, report) in sections {
         if !(wanted.is_empty() || wanted.iter().any(|w| *w == name)) {

@@ -24,6 +24,7 @@ pub const AREAS: &[(&str, &str)] = &[
     ("tiles", "3D Tiles export"),
     ("fuzz", "Fuzzing: the last tools/fuzz campaign"),
     ("python", "Python package: `import octowrap` against the library and the command line"),
+    ("hostile", "Hostile input: issue 17's table re-run"),
 ];
 
 /// The page's opening, before the areas' blocks.
