@@ -121,14 +121,16 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
     match h.data {
         DataKind::Ascii => Some(Rule::Text { from: h.data_start }),
         DataKind::Binary => {
-            Some(Rule::EndsBy { end: start.saturating_add(h.points.saturating_mul(h.point_step as u64)) })
+            let end = start.saturating_add(h.points.saturating_mul(h.point_step as u64));
+            Some(Rule::EndsBy { end, least: end })
         }
         DataKind::Compressed => {
             let sizes = data.get(h.data_start..h.data_start.checked_add(4)?)?;
             let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]);
             // PCL pads the file with zeros, never beyond the expanded size.
             let pad = h.points.saturating_mul(h.point_step as u64);
-            Some(Rule::EndsBy { end: (start + 8 + u64::from(compressed)).saturating_add(pad) })
+            let least = start + 8 + u64::from(compressed);
+            Some(Rule::EndsBy { end: least.saturating_add(pad), least })
         }
     }
 }

@@ -63,9 +63,11 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
     if h.encoding == header::Encoding::Ascii {
         return Some(Rule::Text { from: 0 });
     }
-    let body =
-        h.elements.iter().fold(0u64, |sum, el| sum.saturating_add(el.count.saturating_mul(el.max_binary_size())));
-    Some(Rule::EndsBy { end: (h.body_start as u64).saturating_add(body) })
+    let body = |size: &dyn Fn(&header::Element) -> u64| {
+        h.elements.iter().fold(h.body_start as u64, |sum, el| sum.saturating_add(el.count.saturating_mul(size(el))))
+    };
+    let (end, least) = (body(&header::Element::max_binary_size), body(&|el| el.min_binary_size() as u64));
+    Some(Rule::EndsBy { end, least })
 }
 
 /// Whether every coordinate is exactly an `f32` (then `float` loses nothing).

@@ -6,7 +6,8 @@
 //! * The memory ceiling ([`Limits::max_memory`](crate::Limits)) caps the bytes held.
 //! * Once the format and enough of its header are in, the format gives a [`Rule`]: a binary body
 //!   whose size the header bounds (binary PLY, binary STL, binary PCD) is read up to that bound and
-//!   one byte more, which is trailing data and refused; a text format refuses the first NUL byte,
+//!   one byte more, which is trailing data and refused (and a header whose body needs more bytes
+//!   than the ceiling, every list empty, is refused at once); a text format refuses the first NUL byte,
 //!   which no text holds (a bomb of zeros behind a text header stops in its first chunk).
 //! * A broken gzip stream is reported at the compressed byte where the inflater stopped, with the
 //!   decompressed bytes produced before it.
@@ -29,8 +30,10 @@ const HEADER_WINDOW: usize = 1 << 20;
 pub(crate) enum Rule {
     /// Text from byte `from` on: a NUL byte there is refused.
     Text { from: usize },
-    /// The header bounds the input: nothing may follow byte `end` (exclusive).
-    EndsBy { end: u64 },
+    /// The header bounds the input: nothing may follow byte `end` (exclusive), and the input
+    /// takes at least `least` bytes (the body with every list empty), which must fit under the
+    /// memory ceiling: a header declaring more is refused before its body is read.
+    EndsBy { end: u64, least: u64 },
     /// Nothing to check early (formats read whole by their libraries).
     Free,
 }
@@ -119,7 +122,7 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
     let mut checked = 0usize;
     loop {
         let mut want = CHUNK as u64;
-        if let Some(Rule::EndsBy { end }) = rule {
+        if let Some(Rule::EndsBy { end, .. }) = rule {
             // One byte past the bound is enough to know there is trailing data.
             want = want.min((end + 1).saturating_sub(data.len() as u64)).max(1);
         }
@@ -152,6 +155,13 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
         }
         if let (Some(f), None) = (format, rule) {
             rule = rule_for(f, &data, eof);
+            let least = match rule {
+                Some(Rule::EndsBy { least, .. }) => least,
+                _ => 0,
+            };
+            if least > ceiling {
+                return Err(exceeded(ceiling, least, "the body its header declares", Location::Unknown));
+            }
         }
         match rule {
             Some(Rule::Text { from }) => {
@@ -169,7 +179,7 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
                 }
                 checked = data.len();
             }
-            Some(Rule::EndsBy { end }) if data.len() as u64 > end => {
+            Some(Rule::EndsBy { end, .. }) if data.len() as u64 > end => {
                 return Err(Error::invalid(
                     Location::Byte(end),
                     format!(
@@ -280,5 +290,41 @@ mod tests {
         assert!(e.message.contains("--max-memory"), "{e}");
         let l = load(&gz[..], Some(Path::new("a.xyz.gz")), &ReadOptions::default()).unwrap();
         assert_eq!((l.format, l.data.len()), (Format::Xyz, 600_000));
+    }
+
+    /// A binary PLY header over a body of `len` bytes (zeros, or noise that gzip cannot shrink):
+    /// `vertices` float points, then `faces` faces with an int-counted list.
+    fn ply_over(vertices: u64, faces: u64, len: usize, noise: bool) -> Vec<u8> {
+        let mut ply = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\n\
+             property float z\nelement face {faces}\nproperty list int int vertex_indices\nend_header\n"
+        )
+        .into_bytes();
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        ply.extend((0..len).map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if noise { (x >> 24) as u8 } else { 0 }
+        }));
+        ply
+    }
+
+    #[test]
+    fn a_header_declaring_more_than_the_ceiling_is_refused_before_its_body() {
+        // 2^31 vertices (24 GiB of body at least) over 4 MiB of noise, gzipped: refused at once,
+        // with the input read no further than its first chunks.
+        let gz = gzip(&ply_over(1 << 31, 0, 4 << 20, true));
+        let opts = ReadOptions { limits: Limits { max_memory: Some(1 << 30), ..Limits::default() }, ..Default::default() };
+        let mut counted = Counted { inner: &gz[..], consumed: 0 };
+        let e = load(&mut counted, Some(Path::new("a.ply.gz")), &opts).err().unwrap();
+        assert_eq!(e.kind, ErrorKind::LimitExceeded, "{e}");
+        assert!(e.message.contains("header declares") && e.message.contains("--max-memory"), "{e}");
+        assert!(counted.consumed < gz.len() as u64 / 2, "read {} of {} bytes", counted.consumed, gz.len());
+        // Lists count at their fewest bytes: faces whose lists could hold 2^31 corners each do not
+        // refuse a file whose lists are empty.
+        let small = ply_over(2, 3, 2 * 12 + 3 * 4, false);
+        let l = load(&small[..], Some(Path::new("a.ply")), &opts).unwrap();
+        assert_eq!((l.format, l.data.len()), (Format::Ply, small.len()));
     }
 }

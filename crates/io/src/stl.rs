@@ -113,7 +113,8 @@ pub(crate) fn stream_rule(data: &[u8]) -> Option<Rule> {
         return Some(Rule::Free);
     }
     let n = u32::from_le_bytes([head[80], head[81], head[82], head[83]]);
-    Some(Rule::EndsBy { end: 84 + 50 * u64::from(n) })
+    let end = 84 + 50 * u64::from(n);
+    Some(Rule::EndsBy { end, least: end })
 }
 
 fn read_binary(data: &[u8], limits: &Limits, budget: Budget) -> Result<Mesh> {
