@@ -19,34 +19,71 @@ pub const MAX_FOLD_DEGREES: f64 = 30.0;
 /// Polygons of this many corners or more lose their repeated corners before they are fanned.
 const CLEANED_FROM: usize = 5;
 
-/// The triangles of `mesh` ([`Mesh::triangles`]), except that a polygon of five or more corners
-/// first loses every corner equal to the one after it (cyclically): `a a a b b b c c c` is the
-/// polygon `a b c`. Fanned as given, such a polygon makes a zero-area sliver per repeated corner,
-/// all meeting at the first corner, and those slivers (frozen, and measured by the Hausdorff
-/// certification piece by piece) cost time quadratic in their number. A polygon left with fewer
-/// than three corners is fanned as given. Triangles and quads are always kept as they are, so
-/// their defects stay exactly as they were.
+/// Polygons of this many corners or more (after losing their repeated corners) are cut into a
+/// strip instead of a fan.
+const STRIP_FROM: usize = 16;
+
+/// The triangles of `mesh` ([`Mesh::triangles`]), except for polygons of five or more corners:
+/// * such a polygon first loses every corner equal to the one after it (cyclically):
+///   `a a a b b b c c c` is the polygon `a b c`. Fanned as given, such a polygon makes a zero-area
+///   sliver per repeated corner, all meeting at the first corner, and those slivers (frozen, and
+///   measured by the Hausdorff certification piece by piece) cost time quadratic in their number.
+///   A polygon left with fewer than three corners is fanned as given;
+/// * a polygon then of [`STRIP_FROM`] corners or more is cut into a strip that zigzags between
+///   its two ends (`0 1 n-1`, `1 n-2 n-1`, `1 2 n-2`, ...) rather than fanned: a fan gives its
+///   first corner one triangle per corner, and every collapse next to a vertex of valence `n`
+///   costs `O(n)`, so a fan of `n` corners costs `O(n²)`; in the strip no vertex has more than
+///   four triangles. For a convex polygon both are valid triangulations of the same area.
+///
+/// Triangles and quads are always kept as they are, so their defects stay exactly as they were.
 pub(crate) fn triangulate(mesh: &Mesh) -> Vec<[u32; 3]> {
     let repeats = |f: &[u32]| f.len() >= CLEANED_FROM && (0..f.len()).any(|i| f[i] == f[(i + 1) % f.len()]);
-    if !mesh.faces.iter().any(repeats) {
+    if !mesh.faces.iter().any(|f| f.len() >= STRIP_FROM || repeats(f)) {
         return mesh.triangles();
     }
-    let mut faces = FaceList::with_capacity(mesh.faces.len(), mesh.faces.corner_count());
+    let mut out = Vec::with_capacity(mesh.faces.corner_count());
     let mut kept = Vec::new();
+    let mut one = Mesh { vertices: PointCloud::from_positions(mesh.vertices.positions.clone()), faces: FaceList::default() };
     for f in mesh.faces.iter() {
-        if !repeats(f) {
-            faces.push(f);
-            continue;
-        }
-        kept.clear();
-        for (i, &v) in f.iter().enumerate() {
-            if v != f[(i + 1) % f.len()] {
-                kept.push(v);
+        let mut face = f;
+        if repeats(f) {
+            kept.clear();
+            for (i, &v) in f.iter().enumerate() {
+                if v != f[(i + 1) % f.len()] {
+                    kept.push(v);
+                }
+            }
+            if kept.len() >= 3 {
+                face = &kept;
             }
         }
-        faces.push(if kept.len() >= 3 { &kept } else { f });
+        if face.len() >= STRIP_FROM {
+            strip(face, &mut out);
+        } else {
+            // Quads split along their shorter diagonal, smaller polygons fanned, as Mesh does.
+            one.faces = FaceList::default();
+            one.faces.push(face);
+            out.extend(one.triangles());
+        }
     }
-    Mesh { vertices: PointCloud::from_positions(mesh.vertices.positions.clone()), faces }.triangles()
+    out
+}
+
+/// Appends the `n - 2` triangles of a strip across polygon `f` (see [`triangulate`]), each in the
+/// polygon's orientation.
+fn strip(f: &[u32], out: &mut Vec<[u32; 3]>) {
+    let (mut l, mut r) = (0, f.len() - 1);
+    let mut left = true;
+    while l + 1 < r {
+        if left {
+            out.push([f[l], f[l + 1], f[r]]);
+            l += 1;
+        } else {
+            out.push([f[l], f[r - 1], f[r]]);
+            r -= 1;
+        }
+        left = !left;
+    }
 }
 
 /// Merges triangle pairs into quads (see the module docs). Faces come out in the order of their
@@ -162,8 +199,9 @@ mod tests {
         mesh.faces.push(&corners);
         assert_eq!(mesh.triangles().len(), 2998, "fanned as given");
         let tris = triangulate(&mesh);
-        assert_eq!(tris.len(), 998, "the 1,000-gon's fan");
+        assert_eq!(tris.len(), 998, "the 1,000-gon's strip");
         assert!(tris.iter().all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]));
+        assert!(max_valence(&tris) <= 4, "a strip, not a fan");
         // Repeats across the wrap-around, and faces left as they are.
         mesh.faces = FaceList::default();
         mesh.faces.push(&[0, 1, 2, 3, 0]);
@@ -174,6 +212,57 @@ mod tests {
         assert_eq!(tris[..2], [[0, 1, 2], [0, 2, 3]]);
         assert_eq!(tris[2], [4, 4, 5], "a degenerate triangle stays");
         assert_eq!(tris.len(), 2 + 1 + 2 + 3, "the quad's two and the all-repeated polygon's three as given");
+    }
+
+    /// The most triangles at one vertex.
+    fn max_valence(tris: &[[u32; 3]]) -> usize {
+        let mut count = std::collections::HashMap::new();
+        for &v in tris.iter().flatten() {
+            *count.entry(v).or_insert(0usize) += 1;
+        }
+        count.values().copied().max().unwrap_or(0)
+    }
+
+    #[test]
+    fn a_large_polygon_is_cut_into_a_strip_covering_it_once() {
+        // A convex 40-gon (the unit circle), and a 15-gon below the strip's threshold.
+        let circle = |n: u32, from: u32| -> Vec<DVec3> {
+            (0..n).map(|i| {
+                let a = f64::from(i + from) / f64::from(n) * std::f64::consts::TAU;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            }).collect()
+        };
+        let mut pos = circle(40, 0);
+        pos.extend(circle(15, 0));
+        let mut mesh = Mesh::from_positions(pos.clone());
+        mesh.faces.push(&(0..40).collect::<Vec<u32>>());
+        mesh.faces.push(&(40..55).collect::<Vec<u32>>());
+        let tris = triangulate(&mesh);
+        assert_eq!(tris.len(), 38 + 13);
+        let (big, small) = tris.split_at(38);
+        assert_eq!(small, &mesh.triangles()[38..], "the 15-gon is fanned as Mesh fans it");
+        assert!(max_valence(big) <= 4, "no vertex of the strip has more than four triangles");
+        // Every triangle is counter-clockwise, as the polygon, and together they cover its area once.
+        let area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|v| pos[v as usize]);
+            (b - a).cross(c - a).z / 2.0
+        };
+        assert!(big.iter().all(|t| area(t) > 0.0));
+        let polygon = 20.0 * (std::f64::consts::TAU / 40.0).sin();
+        assert!((big.iter().map(area).sum::<f64>() - polygon).abs() < 1e-12);
+        // Every edge of the polygon is in exactly one triangle, every diagonal in two.
+        let mut edges = std::collections::HashMap::new();
+        for t in big {
+            for k in 0..3 {
+                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+                *edges.entry((a, b)).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            let side = b - a == 1 || (a, b) == (0, 39);
+            assert_eq!(n, if side { 1 } else { 2 }, "edge {a}-{b}");
+        }
+        assert_eq!(edges.len(), 40 + 37);
     }
 
     #[test]
