@@ -10,7 +10,8 @@
 //! (a child that lives less than one sampling period shows `<2 ms`).
 //!
 //! The binary is `target/release/octowrap` (`cargo build --release -p octowrap-cli` first), or
-//! the one `OCTOWRAP_BIN` names.
+//! the one `OCTOWRAP_BIN` names. `OCTOWRAP_HOSTILE=WORD` runs only the classes whose name holds
+//! WORD (`OCTOWRAP_HOSTILE=super`: the super-linear class).
 
 use std::ffi::OsStr;
 use std::fmt::Write as _;
@@ -369,7 +370,11 @@ pub fn report() {
     ];
     outln!("`{}` on files crafted in a temporary folder; caps per run (killed past them): {} s and", ctx.bin.display(), CAP.secs);
     outln!("{} MiB unless a row says otherwise. Peak = the child's `VmHWM`, sampled every 2 ms.\n", CAP.mib);
+    let only = std::env::var("OCTOWRAP_HOSTILE").unwrap_or_default();
     for (class, f) in classes {
+        if !class.contains(only.as_str()) {
+            continue;
+        }
         ctx.class = class;
         let t = Instant::now();
         f(&mut ctx);
