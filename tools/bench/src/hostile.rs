@@ -566,15 +566,16 @@ fn super_linear(ctx: &mut Ctx) {
     let cap = Cap { secs: 60.0, mib: 2048 };
     for shape in ["pairs", "laps", "point", "collinear"] {
         let mut times = Vec::new();
-        for n in [3000usize, 30_000] {
+        for n in [3000usize, 30_000, 300_000] {
             let p = ctx.write(&format!("poly-{shape}-{n}.obj"), polygon_obj(n, shape));
-            let run = ctx.run(&["decimate", s(&p), "--max-error", "1%", "-o", "poly-out.obj"], cap);
-            let budget = if n == 3000 { 2.0 } else { 20.0 };
+            let run = best_of_runs(ctx, &["decimate", s(&p), "--max-error", "1%", "-o", "poly-out.obj"], cap);
+            let budget = n as f64 / 10_000.0 + 0.5;
             let ok_or_refused = if run.code == Some(0) { run.ok() } else { run.refused(&[]) };
             ctx.row(format!("`decimate --max-error 1%` one {n}-corner polygon, {}", shape_name(shape)), &run, all([ok_or_refused, run.within(budget, 1024.0)]));
             times.push(run.secs);
         }
-        growth(ctx, format!("growth 3,000 → 30,000 corners ({})", shape_name(shape)), &times, 10.0);
+        growth(ctx, format!("growth 3,000 → 30,000 corners ({})", shape_name(shape)), &times[..2], 10.0);
+        growth(ctx, format!("growth 30,000 → 300,000 corners ({})", shape_name(shape)), &times[1..], 10.0);
     }
     for (case, face) in [("`f 1 1 1`", "f 1 1 1\n"), ("`f 1 2 2`", "f 1 2 2\n"), ("one triangle repeated", "f 1 2 3\n")] {
         let mut times = Vec::new();
@@ -582,7 +583,7 @@ fn super_linear(ctx: &mut Ctx) {
             let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
             obj.push_str(&face.repeat(n));
             let p = ctx.write(&format!("degenerate-{n}.obj"), obj);
-            let run = ctx.run(&["export", s(&p), "--meshopt", "-o", "degenerate.glb"], cap);
+            let run = best_of_runs(ctx, &["export", s(&p), "--meshopt", "-o", "degenerate.glb"], cap);
             let budget = if n == 60_000 { 3.0 } else { 15.0 };
             let ok_or_refused = if run.code == Some(0) { run.ok() } else { run.refused(&[]) };
             ctx.row(format!("`export --meshopt` {n} faces {case}"), &run, all([ok_or_refused, run.within(budget, 1024.0)]));
@@ -590,6 +591,22 @@ fn super_linear(ctx: &mut Ctx) {
         }
         growth(ctx, format!("growth 60,000 → 300,000 faces ({case})"), &times, 5.0);
     }
+}
+
+/// The fastest of three runs (one when the first takes over a second): the growth rows compare
+/// times of a few milliseconds, which a loaded machine stretches at random.
+fn best_of_runs(ctx: &Ctx, args: &[&str], cap: Cap) -> Run {
+    let mut best = ctx.run(args, cap);
+    for _ in 0..2 {
+        if best.secs > 1.0 || best.capped.is_some() {
+            break;
+        }
+        let again = ctx.run(args, cap);
+        if again.secs < best.secs {
+            best = again;
+        }
+    }
+    best
 }
 
 fn shape_name(shape: &str) -> &'static str {
@@ -603,10 +620,11 @@ fn shape_name(shape: &str) -> &'static str {
 
 /// A row for how the time grew from `times[0]` to `times[1]` when the input grew `factor`
 /// times: wanted when the time grew at most `factor^1.3` times (a quadratic cost grows
-/// `factor^2` times). The process start (about 5 ms) is taken off both.
+/// `factor^2` times). The process start (about 5 ms) is taken off both, and times under 20 ms
+/// count as 20 ms (below that the ratio measures the machine's noise).
 fn growth(ctx: &mut Ctx, case: String, times: &[f64], factor: f64) {
     let [a, b] = times else { return };
-    let (a, b) = ((a - 0.005).max(0.01), (b - 0.005).max(0.01));
+    let (a, b) = ((a - 0.005).max(0.02), (b - 0.005).max(0.02));
     let ratio = b / a;
     let limit = factor.powf(1.3);
     let verdict = if ratio <= limit { Ok(()) } else { Err(format!("time grew {ratio:.1}× (limit {limit:.0}×; quadratic: {:.0}×)", factor * factor)) };
