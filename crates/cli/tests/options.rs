@@ -116,6 +116,23 @@ fn a_broken_input_is_blamed_not_the_output() {
 }
 
 #[test]
+fn an_input_export_cannot_draw_is_blamed_not_the_output() {
+    // Readable, but every triangle names a vertex twice: the export refuses the content.
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("degenerate.obj");
+    std::fs::write(&input, "v 0 0 0\nv 1 0 0\nv 0 1 0\n".to_owned() + &"f 1 1 1\n".repeat(100)).unwrap();
+    for output in ["o.glb", "o.gltf"] {
+        let out_path = dir.path().join(output);
+        let out = octowrap(&["export", s(&input), "-o", s(&out_path), "--meshopt"]);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{output}: {err}");
+        assert!(err.contains("degenerate.obj") && err.contains("names a vertex twice"), "{output}: names the input: {err}");
+        assert!(!err.contains(output), "{output}: does not blame the output: {err}");
+        assert!(!out_path.exists());
+    }
+}
+
+#[test]
 fn info_reports_every_file_and_exits_2_if_any_failed() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.ply");

@@ -80,11 +80,22 @@ pub(crate) fn gltf(built: Built) -> (Vec<u8>, Vec<u8>, Summary) {
     (json, built.bin, summary)
 }
 
+/// An error of building the document, for [`write_path`]: what is wrong with the input
+/// ([`Error::Invalid`]) names no file, so that the caller names the input (the output is not
+/// what is broken); what does not fit the output names it.
+fn output_error(e: Error, output: &str) -> Error {
+    match e {
+        Error::Invalid { .. } => e,
+        other => other.in_file(output),
+    }
+}
+
 /// Exports `h` to `path`: GLB for `.glb`, or for `.gltf` the JSON plus `STEM.bin` beside it. Each
 /// file is written with [`octowrap_fsutil::write_file`] (to a temporary file in the same folder,
 /// renamed into place when complete, so a failed export leaves nothing half-written; a replaced
 /// file keeps its mode and a symbolic link stays a link). With [`ExportOptions::no_clobber`], an
-/// existing file is refused before anything is written. Errors name the output file.
+/// existing file is refused before anything is written. Errors name the output file, except
+/// those about the input ([`Error::Invalid`]: no faces, broken indices, ...), which name none.
 ///
 /// ```no_run
 /// use octowrap_export::{ExportOptions, Levels, write_path};
@@ -102,7 +113,7 @@ pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Su
     match Container::from_path(path) {
         Some(Container::Glb) => {
             check(path, &file_opts)?;
-            let (bytes, summary) = to_glb(h, opts).map_err(|e| e.in_file(&name))?;
+            let (bytes, summary) = to_glb(h, opts).map_err(|e| output_error(e, &name))?;
             write_file(path, &file_opts, &bytes)?;
             Ok(summary)
         }
@@ -117,7 +128,7 @@ pub fn write_path(path: &Path, h: &Hierarchy, opts: &ExportOptions) -> Result<Su
             let uri = percent_encode(bin_name);
             check(path, &file_opts)?;
             check(&bin_path, &file_opts)?;
-            let (json, bin, summary) = to_gltf(h, opts, &uri).map_err(|e| e.in_file(&name))?;
+            let (json, bin, summary) = to_gltf(h, opts, &uri).map_err(|e| output_error(e, &name))?;
             write_file(&bin_path, &file_opts, &bin)?;
             write_file(path, &file_opts, &json)?;
             Ok(summary)

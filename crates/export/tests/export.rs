@@ -408,11 +408,12 @@ fn hostile_input_gets_named_errors() {
     let mut m = quad();
     m.vertices.positions[0] = DVec3::splat(1e300);
     assert!(matches!(to_glb(&Hierarchy::single(m), &d), Err(Error::LimitExceeded { .. })));
-    // A failed write leaves no file behind and names the output.
+    // A failed write leaves no file behind; what is wrong with the input names no file (the
+    // caller names the input), what the system refuses names the output.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.glb");
     let e = write_path(&out, &Hierarchy::default(), &d).unwrap_err();
-    assert!(e.to_string().starts_with(&format!("{}: invalid", out.display())), "{e}");
+    assert!(e.to_string().starts_with("invalid: "), "{e}");
     assert!(!out.exists());
     let e = write_path(Path::new("/nonexistent-dir/x.glb"), &Hierarchy::single(quad()), &d).unwrap_err();
     assert!(matches!(e, Error::Io { .. }) && e.to_string().contains("/nonexistent-dir/x.glb"), "{e}");
