@@ -946,6 +946,10 @@ fn messages(ctx: &mut Ctx) {
         let blames_output = run.stderr.contains("result-file");
         ctx.row(format!("`convert` a {case}: the message names the input"), &run, all([run.refused(&[&name]), if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) }]));
     }
+    let degenerate = ctx.write("m/degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n".to_owned() + &"f 1 1 1\n".repeat(100));
+    let run = ctx.run(&["export", s(&degenerate), "-o", "m/result-file.glb"], CAP);
+    let blames_output = run.stderr.contains("result-file");
+    ctx.row("`export` a mesh of degenerate triangles: the message names the input", &run, all([run.refused(&["degenerate.obj"]), if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) }]));
     let mut denormal = String::new();
     for i in 0..3000u32 {
         let _ = writeln!(denormal, "{:e} {:e} {:e}", f64::from(i) * 1e-310, f64::from(i % 17) * 1e-310, f64::from(i % 13) * 1e-310);
