@@ -309,8 +309,10 @@ fn vertex_quadric(v: u32, kind: Kind, pos: &[DVec3], tris: &[[u32; 3]], adj: &Cs
     for &t in adj.of(v) {
         let (fq, normal) = plane(&tris[t as usize]);
         q.add(&fq);
-        // Only border (and frozen) vertices can lie on a boundary edge.
-        if kind == Kind::Interior {
+        // Only border (and frozen) vertices can lie on a boundary edge, and a degenerate face
+        // (no normal) gives its boundary edges no plane: skip the search for the opposite side,
+        // whose cost grows with the valence (a vertex gathering thousands of zero-area faces).
+        if kind == Kind::Interior || normal == DVec3::ZERO {
             continue;
         }
         let tri = tris[t as usize];
