@@ -19,7 +19,9 @@ pub struct Cli {
     pub command: Command,
     /// Most memory one input may make the command allocate, as bytes or with a suffix (512M, 8G,
     /// 1T). Inputs larger than this, or declaring more than this, are refused before they are
-    /// read: the readers and the MRQ decoder check it before allocating.
+    /// read: the readers and the MRQ decoder check it before allocating. The resident memory can
+    /// pass it for a moment, up to about twice it, while a growing buffer is copied (the old copy,
+    /// and pages the allocator has not yet returned).
     #[arg(long, global = true, value_name = "SIZE", default_value = crate::limits::DEFAULT_MAX_MEMORY,
           value_parser = crate::limits::parse_size)]
     pub max_memory: u64,
