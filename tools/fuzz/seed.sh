@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Builds tools/fuzz/corpus/<target>/ for every reader target from fixtures/ and from the small,
-# non-GPL files of ../shared/data (each data folder's PROVENANCE.md states its licence; the lidR
-# LAZ files and the PyMeshLab range map are GPL and left out). Nothing here is committed: the
+# Builds tools/fuzz/corpus/<target>/ for every reader target and the MRQ decoder from fixtures/
+# and from the small, non-GPL files of ../shared/data (each data folder's PROVENANCE.md states its
+# licence; the lidR LAZ files and the PyMeshLab range map are GPL and left out). Nothing here is committed: the
 # corpora live in the git-ignored corpus/ folder. Files over 128 KiB (the targets' -max_len) are
 # skipped. Safe to re-run: it only adds files.
 set -euo pipefail
@@ -31,6 +31,8 @@ add read_pcd "$data"/pcl-pcd/bunny.pcd "$data"/pcl-pcd/bun0.pcd "$data"/pcl-pcd/
 add read_las "$data"/cgal-data/points_3/oni.las
 add read_e57 "$data"/e57/tiny_spherical.e57 "$data"/e57/tinyCartesianFloatRgb.e57
 add read_conf "$data"/stanford-bunny/data/bun.conf
+# The MRQ decoder: the conformance files, valid, invalid and the regression ones.
+add decode "$root"/fixtures/format/*/*.mrq
 # A tiny OpenEXR image from CPython's test data (PSF licence), when a CPython source tree has it.
 add read_exr $(find / -name python.exr -size -64k -path "*imghdrdata*" 2>/dev/null | head -1)
 
@@ -69,6 +71,6 @@ for t in read_ply read_obj read_off read_stl read_xyz read_pcd read_las read_e57
     fi
     k=$((k + 1))
 done
-for d in "$corpus"/read_*; do
+for d in "$corpus"/read_* "$corpus"/decode; do
     echo "$(basename "$d"): $(ls "$d" | wc -l) seeds"
 done
