@@ -126,7 +126,10 @@ fn an_input_export_cannot_draw_is_blamed_not_the_output() {
         let out = octowrap(&["export", s(&input), "-o", s(&out_path), "--meshopt"]);
         let err = text(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{output}: {err}");
-        assert!(err.contains("degenerate.obj") && err.contains("names a vertex twice"), "{output}: names the input: {err}");
+        assert!(
+            err.contains("degenerate.obj") && err.contains("names a vertex twice"),
+            "{output}: names the input: {err}"
+        );
         assert!(!err.contains(output), "{output}: does not blame the output: {err}");
         assert!(!out_path.exists());
     }

@@ -43,7 +43,8 @@ pub(crate) fn triangulate(mesh: &Mesh) -> Vec<[u32; 3]> {
     }
     let mut out = Vec::with_capacity(mesh.faces.corner_count());
     let mut kept = Vec::new();
-    let mut one = Mesh { vertices: PointCloud::from_positions(mesh.vertices.positions.clone()), faces: FaceList::default() };
+    let mut one =
+        Mesh { vertices: PointCloud::from_positions(mesh.vertices.positions.clone()), faces: FaceList::default() };
     for f in mesh.faces.iter() {
         let mut face = f;
         if repeats(f) {
@@ -227,10 +228,12 @@ mod tests {
     fn a_large_polygon_is_cut_into_a_strip_covering_it_once() {
         // A convex 40-gon (the unit circle), and a 15-gon below the strip's threshold.
         let circle = |n: u32, from: u32| -> Vec<DVec3> {
-            (0..n).map(|i| {
-                let a = f64::from(i + from) / f64::from(n) * std::f64::consts::TAU;
-                DVec3::new(a.cos(), a.sin(), 0.0)
-            }).collect()
+            (0..n)
+                .map(|i| {
+                    let a = f64::from(i + from) / f64::from(n) * std::f64::consts::TAU;
+                    DVec3::new(a.cos(), a.sin(), 0.0)
+                })
+                .collect()
         };
         let mut pos = circle(40, 0);
         pos.extend(circle(15, 0));

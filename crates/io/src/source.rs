@@ -315,7 +315,8 @@ mod tests {
         // 2^31 vertices (24 GiB of body at least) over 4 MiB of noise, gzipped: refused at once,
         // with the input read no further than its first chunks.
         let gz = gzip(&ply_over(1 << 31, 0, 4 << 20, true));
-        let opts = ReadOptions { limits: Limits { max_memory: Some(1 << 30), ..Limits::default() }, ..Default::default() };
+        let opts =
+            ReadOptions { limits: Limits { max_memory: Some(1 << 30), ..Limits::default() }, ..Default::default() };
         let mut counted = Counted { inner: &gz[..], consumed: 0 };
         let e = load(&mut counted, Some(Path::new("a.ply.gz")), &opts).err().unwrap();
         assert_eq!(e.kind, ErrorKind::LimitExceeded, "{e}");

@@ -135,6 +135,9 @@ struct Row {
     verdict: Result<(), String>,
 }
 
+/// A class of the issue's table, and the function that probes it.
+type Class = (&'static str, fn(&mut Ctx));
+
 /// The probe's folder and binary, and the rows so far.
 struct Ctx {
     bin: PathBuf,
@@ -344,10 +347,8 @@ f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
 pub fn report() {
     outln!("## Hostile input (issue 17)\n");
-    let bin = std::env::var_os("OCTOWRAP_BIN").map_or_else(
-        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/release/octowrap"),
-        PathBuf::from,
-    );
+    let bin = std::env::var_os("OCTOWRAP_BIN")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/release/octowrap"), PathBuf::from);
     if !bin.is_file() {
         outln!("no binary at {}: `cargo build --release -p octowrap-cli` first (or set OCTOWRAP_BIN)\n", bin.display());
         headline("hostile input", "not measured: no octowrap binary", "every row wanted", None);
@@ -356,7 +357,7 @@ pub fn report() {
     let dir = tempfile::Builder::new().prefix("octowrap-hostile-").tempdir().expect("a temporary folder");
     let mut ctx = Ctx { bin, dir, rows: Vec::new(), class: "" };
     let started = Instant::now();
-    let classes: [(&'static str, fn(&mut Ctx)); 10] = [
+    let classes: [Class; 10] = [
         ("declared counts in MRQ", mrq_counts),
         ("decompression bombs", bombs),
         ("amplification", amplification),
@@ -368,7 +369,11 @@ pub fn report() {
         ("messages", messages),
         ("memory ceiling", ceiling),
     ];
-    outln!("`{}` on files crafted in a temporary folder; caps per run (killed past them): {} s and", ctx.bin.display(), CAP.secs);
+    outln!(
+        "`{}` on files crafted in a temporary folder; caps per run (killed past them): {} s and",
+        ctx.bin.display(),
+        CAP.secs
+    );
     outln!("{} MiB unless a row says otherwise. Peak = the child's `VmHWM`, sampled every 2 ms.\n", CAP.mib);
     let only = std::env::var("OCTOWRAP_HOSTILE").unwrap_or_default();
     for (class, f) in classes {
@@ -391,11 +396,20 @@ pub fn report() {
             outln!("| {} | {} | {:.3} | {} | {outcome} |", r.case.replace('|', "\\|"), r.exit, r.secs, r.peak);
         }
         outln!();
-        headline(format!("hostile: {class}"), format!("{wanted} of {} rows wanted", rows.len()), "all", Some(wanted == rows.len()));
+        headline(
+            format!("hostile: {class}"),
+            format!("{wanted} of {} rows wanted", rows.len()),
+            "all",
+            Some(wanted == rows.len()),
+        );
     }
     let total = ctx.rows.len();
     let wanted = ctx.rows.iter().filter(|r| r.1.verdict.is_ok()).count();
-    outln!("{wanted} of {total} rows wanted, in {:.0} s (load {:.1}).\n", started.elapsed().as_secs_f64(), crate::util::load_average().unwrap_or(f64::NAN));
+    outln!(
+        "{wanted} of {total} rows wanted, in {:.0} s (load {:.1}).\n",
+        started.elapsed().as_secs_f64(),
+        crate::util::load_average().unwrap_or(f64::NAN)
+    );
 }
 
 /// MRQ files whose level table declares huge counts, with valid checksums, through every
@@ -469,12 +483,17 @@ fn bombs(ctx: &mut Ctx) {
         ("`info` .ply.gz declaring 2^31 vertices over 1 GiB of zeros", &big_decl, vec!["declares.ply.gz"]),
         ("`convert` .obj.gz with garbage after the gzip member", &garbage, vec!["garbage.obj.gz"]),
     ] {
-        let args: Vec<&str> = if case.starts_with("`info`") { vec!["info", s(file)] } else { vec!["convert", s(file), "g.ply"] };
+        let args: Vec<&str> =
+            if case.starts_with("`info`") { vec!["info", s(file)] } else { vec!["convert", s(file), "g.ply"] };
         let run = ctx.run(&args, CAP);
         ctx.row(case, &run, all([run.refused(&needles), run.within(20.0, 300.0)]));
     }
     let run = ctx.run(&["reconstruct", s(&trailing), "-o", "t.mrq"], CAP);
-    ctx.row("`reconstruct` .ply.gz: 1,000 vertices then 1 GiB of zeros", &run, all([run.refused(&["trailing"]), run.within(20.0, 300.0)]));
+    ctx.row(
+        "`reconstruct` .ply.gz: 1,000 vertices then 1 GiB of zeros",
+        &run,
+        all([run.refused(&["trailing"]), run.within(20.0, 300.0)]),
+    );
     for (case, file) in [
         ("`info --max-memory 256M` .ply.gz declaring 10^8 vertices over 256 MiB of zeros", &mid_decl),
         ("`info --max-memory 256M` .xyz.gz of 60 M points (360 MB of text)", &xyz_gz),
@@ -483,7 +502,11 @@ fn bombs(ctx: &mut Ctx) {
         ctx.row(case, &run, all([run.refused(&["max-memory"]), run.within(20.0, 300.0)]));
     }
     let run = ctx.run(&["info", "--max-memory", "16M", s(&xyz_gz)], CAP);
-    ctx.row("`info --max-memory 16M` the same .xyz.gz", &run, all([run.refused(&["max-memory"]), run.within(20.0, 100.0)]));
+    ctx.row(
+        "`info --max-memory 16M` the same .xyz.gz",
+        &run,
+        all([run.refused(&["max-memory"]), run.within(20.0, 100.0)]),
+    );
     // MRQ levels whose zstd frame expands hugely.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let Ok(seed) = std::fs::read(root.join("fixtures/format/valid/cube3_lattice_q12.mrq")) else {
@@ -496,14 +519,22 @@ fn bombs(ctx: &mut Ctx) {
     for (case, raw, args) in [
         ("`convert` MRQ level: 1 GiB zstd frame, table says 4 KiB", 4096u64, vec!["convert", "ZB", "z.ply"]),
         ("`convert` MRQ level: 1 GiB zstd frame, table says 1 GiB", gib as u64, vec!["convert", "ZB", "z.ply"]),
-        ("`validate --max-memory 256M` MRQ level: 1 GiB zstd frame, table says 1 GiB", gib as u64, vec!["validate", "--max-memory", "256M", "ZB"]),
+        (
+            "`validate --max-memory 256M` MRQ level: 1 GiB zstd frame, table says 1 GiB",
+            gib as u64,
+            vec!["validate", "--max-memory", "256M", "ZB"],
+        ),
         ("`extract` MRQ level: 1 GiB zstd frame, table says 2^40", 1u64 << 40, vec!["extract", "ZB", "-o", "z.obj"]),
     ] {
         let Some(file) = octowrap_format::tamper::replace_stored(&seed, 0, &frame, raw) else { continue };
         let p = ctx.write(&format!("zbomb{raw}.mrq"), file);
         let args: Vec<&str> = args.iter().map(|a| if *a == "ZB" { s(&p) } else { a }).collect();
         let run = ctx.run(&args, CAP);
-        ctx.row(format!("{case} ({} KB file)", std::fs::metadata(&p).map_or(0, |m| m.len()) / 1000), &run, all([run.refused(&[]), run.within(10.0, 600.0)]));
+        ctx.row(
+            format!("{case} ({} KB file)", std::fs::metadata(&p).map_or(0, |m| m.len()) / 1000),
+            &run,
+            all([run.refused(&[]), run.within(10.0, 600.0)]),
+        );
     }
 }
 
@@ -520,17 +551,30 @@ fn amplification(ctx: &mut Ctx) {
         selfref.push_str("bmesh self.conf 0 0 0 0 0 0 1\n");
     }
     let selfref = ctx.write("amp/self.conf", selfref);
-    let cameras = ctx.write("amp/cameras.conf", "camera 0 0 0 0 0 0 1\n".repeat(200_000) + "bmesh scan.xyz 0 0 0 0 0 0 1\n");
+    let cameras =
+        ctx.write("amp/cameras.conf", "camera 0 0 0 0 0 0 1\n".repeat(200_000) + "bmesh scan.xyz 0 0 0 0 0 0 1\n");
     let run = ctx.run(&["info", s(&big)], CAP);
-    ctx.row("`info` .conf: 60,000 `bmesh` lines naming one 3,000-point scan", &run, all([run.refused(&["max-scans"]), run.within(2.0, 100.0)]));
+    ctx.row(
+        "`info` .conf: 60,000 `bmesh` lines naming one 3,000-point scan",
+        &run,
+        all([run.refused(&["max-scans"]), run.within(2.0, 100.0)]),
+    );
     let run = ctx.run(&["reconstruct", s(&big), "-o", "amp.mrq"], CAP);
     ctx.row("`reconstruct` the same .conf", &run, all([run.refused(&["max-scans"]), run.within(2.0, 100.0)]));
     let run = ctx.run(&["info", "--max-scans", "100000", "--max-memory", "64M", s(&big)], CAP);
-    ctx.row("`info --max-scans 100000 --max-memory 64M` the same .conf", &run, all([run.refused(&["max-memory"]), run.within(10.0, 200.0)]));
+    ctx.row(
+        "`info --max-scans 100000 --max-memory 64M` the same .conf",
+        &run,
+        all([run.refused(&["max-memory"]), run.within(10.0, 200.0)]),
+    );
     let run = ctx.run(&["info", s(&selfref)], CAP);
     ctx.row("`info` .conf naming itself 50 times", &run, all([run.refused(&["self.conf"]), run.within(2.0, 100.0)]));
     let run = ctx.run(&["info", s(&cameras)], CAP);
-    ctx.row("`info` .conf: 200,000 `camera` lines, one scan (legitimate: read)", &run, all([run.ok(), run.within(5.0, 200.0)]));
+    ctx.row(
+        "`info` .conf: 200,000 `camera` lines, one scan (legitimate: read)",
+        &run,
+        all([run.ok(), run.within(5.0, 200.0)]),
+    );
 }
 
 /// A polygon of `n` corners as OBJ, of one of the degenerate shapes.
@@ -571,13 +615,18 @@ fn super_linear(ctx: &mut Ctx) {
             let run = best_of_runs(ctx, &["decimate", s(&p), "--max-error", "1%", "-o", "poly-out.obj"], cap);
             let budget = n as f64 / 10_000.0 + 0.5;
             let ok_or_refused = if run.code == Some(0) { run.ok() } else { run.refused(&[]) };
-            ctx.row(format!("`decimate --max-error 1%` one {n}-corner polygon, {}", shape_name(shape)), &run, all([ok_or_refused, run.within(budget, 1024.0)]));
+            ctx.row(
+                format!("`decimate --max-error 1%` one {n}-corner polygon, {}", shape_name(shape)),
+                &run,
+                all([ok_or_refused, run.within(budget, 1024.0)]),
+            );
             times.push(run.secs);
         }
-        growth(ctx, format!("growth 3,000 → 30,000 corners ({})", shape_name(shape)), &times[..2], 10.0);
-        growth(ctx, format!("growth 30,000 → 300,000 corners ({})", shape_name(shape)), &times[1..], 10.0);
+        growth(ctx, &format!("growth 3,000 → 30,000 corners ({})", shape_name(shape)), &times[..2], 10.0);
+        growth(ctx, &format!("growth 30,000 → 300,000 corners ({})", shape_name(shape)), &times[1..], 10.0);
     }
-    for (case, face) in [("`f 1 1 1`", "f 1 1 1\n"), ("`f 1 2 2`", "f 1 2 2\n"), ("one triangle repeated", "f 1 2 3\n")] {
+    for (case, face) in [("`f 1 1 1`", "f 1 1 1\n"), ("`f 1 2 2`", "f 1 2 2\n"), ("one triangle repeated", "f 1 2 3\n")]
+    {
         let mut times = Vec::new();
         for n in [60_000usize, 300_000] {
             let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
@@ -586,10 +635,14 @@ fn super_linear(ctx: &mut Ctx) {
             let run = best_of_runs(ctx, &["export", s(&p), "--meshopt", "-o", "degenerate.glb"], cap);
             let budget = if n == 60_000 { 3.0 } else { 15.0 };
             let ok_or_refused = if run.code == Some(0) { run.ok() } else { run.refused(&[]) };
-            ctx.row(format!("`export --meshopt` {n} faces {case}"), &run, all([ok_or_refused, run.within(budget, 1024.0)]));
+            ctx.row(
+                format!("`export --meshopt` {n} faces {case}"),
+                &run,
+                all([ok_or_refused, run.within(budget, 1024.0)]),
+            );
             times.push(run.secs);
         }
-        growth(ctx, format!("growth 60,000 → 300,000 faces ({case})"), &times, 5.0);
+        growth(ctx, &format!("growth 60,000 → 300,000 faces ({case})"), &times, 5.0);
     }
 }
 
@@ -622,12 +675,16 @@ fn shape_name(shape: &str) -> &'static str {
 /// times: wanted when the time grew at most `factor^1.3` times (a quadratic cost grows
 /// `factor^2` times). The process start (about 5 ms) is taken off both, and times under 20 ms
 /// count as 20 ms (below that the ratio measures the machine's noise).
-fn growth(ctx: &mut Ctx, case: String, times: &[f64], factor: f64) {
+fn growth(ctx: &mut Ctx, case: &str, times: &[f64], factor: f64) {
     let [a, b] = times else { return };
     let (a, b) = ((a - 0.005).max(0.02), (b - 0.005).max(0.02));
     let ratio = b / a;
     let limit = factor.powf(1.3);
-    let verdict = if ratio <= limit { Ok(()) } else { Err(format!("time grew {ratio:.1}× (limit {limit:.0}×; quadratic: {:.0}×)", factor * factor)) };
+    let verdict = if ratio <= limit {
+        Ok(())
+    } else {
+        Err(format!("time grew {ratio:.1}× (limit {limit:.0}×; quadratic: {:.0}×)", factor * factor))
+    };
     ctx.note(format!("{case}: {ratio:.1}×"), b, verdict);
 }
 
@@ -641,28 +698,45 @@ fn nonsense(ctx: &mut Ctx) {
     ] {
         let p = ctx.write(&format!("far-{}.xyz", name.len()), unit_cube_xyz(3000, 3) + extra);
         let run = ctx.run(&["reconstruct", s(&p), "-o", "far.mrq"], CAP);
-        ctx.row(format!("`reconstruct` 3,000 points in the unit cube and one at {name}"), &run, all([run.refused(&["finite"]), run.within(10.0, 500.0)]));
+        ctx.row(
+            format!("`reconstruct` 3,000 points in the unit cube and one at {name}"),
+            &run,
+            all([run.refused(&["finite"]), run.within(10.0, 500.0)]),
+        );
     }
     let mut r = Lcg(17);
     for k in 0..3 {
         let p = ctx.write(&format!("random{k}.obj"), r.bytes(100_000));
         let run = ctx.run(&["validate", "--require", "watertight", s(&p)], CAP);
-        ctx.row(format!("`validate --require watertight` 100 KB of random bytes named .obj (#{k})"), &run, all([run.refused(&[]), run.within(5.0, 200.0)]));
+        ctx.row(
+            format!("`validate --require watertight` 100 KB of random bytes named .obj (#{k})"),
+            &run,
+            all([run.refused(&[]), run.within(5.0, 200.0)]),
+        );
     }
     let p = ctx.write("random-info.obj", r.bytes(100_000));
     let run = ctx.run(&["info", s(&p)], CAP);
-    ctx.row("`info` 100 KB of random bytes named .obj", &run, all([run.refused(&["random-info.obj"]), run.within(5.0, 200.0)]));
+    ctx.row(
+        "`info` 100 KB of random bytes named .obj",
+        &run,
+        all([run.refused(&["random-info.obj"]), run.within(5.0, 200.0)]),
+    );
     let p = ctx.write("empty.obj", "");
     let run = ctx.run(&["validate", "--require", "watertight", s(&p)], CAP);
     ctx.row("`validate --require watertight` an empty .obj", &run, all([run.refused(&[]), run.within(5.0, 200.0)]));
     let p = ctx.write("noface.ply", "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n");
     let run = ctx.run(&["validate", "--require", "manifold", s(&p)], CAP);
-    ctx.row("`validate --require manifold` a PLY of 0 vertices and 0 faces", &run, all([run.refused(&[]), run.within(5.0, 200.0)]));
+    ctx.row(
+        "`validate --require manifold` a PLY of 0 vertices and 0 faces",
+        &run,
+        all([run.refused(&[]), run.within(5.0, 200.0)]),
+    );
 }
 
 fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> =
-        std::fs::read_dir(dir).map(|d| d.filter_map(Result::ok).map(|e| e.file_name().to_string_lossy().into_owned()).collect()).unwrap_or_default();
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| d.filter_map(Result::ok).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
+        .unwrap_or_default();
     v.sort();
     v
 }
@@ -703,13 +777,24 @@ fn writes(ctx: &mut Ctx) {
     }
     // A character device made here (never the machine's own /dev/null).
     let null = ctx.path("w/null.ply");
-    if Command::new("mknod").arg(&null).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|st| st.success()) {
+    if Command::new("mknod")
+        .arg(&null)
+        .args(["c", "1", "3"])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|st| st.success())
+    {
         let before = std::fs::symlink_metadata(&null).map(|m| (m.ino(), m.rdev())).ok();
         for args in [vec!["convert", s(&cube), s(&null)], vec!["convert", s(&cube), s(&null), "--to", "stl"]] {
             let run = ctx.run(&args, Cap { secs: 10.0, mib: 512 });
             let after = std::fs::symlink_metadata(&null).ok();
-            let kept = after.as_ref().is_some_and(|m| m.file_type().is_char_device() && Some((m.ino(), m.rdev())) == before);
-            ctx.row(format!("`{}` onto a character device", args[3..].join(" ")), &run, all([run.ok(), if kept { Ok(()) } else { Err("the device node was replaced".to_owned()) }]));
+            let kept =
+                after.as_ref().is_some_and(|m| m.file_type().is_char_device() && Some((m.ino(), m.rdev())) == before);
+            ctx.row(
+                format!("`{}` onto a character device", args[3..].join(" ")),
+                &run,
+                all([run.ok(), if kept { Ok(()) } else { Err("the device node was replaced".to_owned()) }]),
+            );
         }
         let _ = std::fs::remove_file(&null);
     } else {
@@ -725,7 +810,7 @@ fn writes(ctx: &mut Ctx) {
         let run = ctx.run(&["convert", s(&cube), s(&link)], Cap { secs: 10.0, mib: 512 });
         let is_link = std::fs::symlink_metadata(&link).is_ok_and(|m| m.file_type().is_symlink());
         let content = std::fs::read(&target).unwrap_or_default();
-        let kept_mode = std::fs::metadata(&target).map(|m| m.mode() & 0o7777).unwrap_or(0);
+        let kept_mode = std::fs::metadata(&target).map_or(0, |m| m.mode() & 0o7777);
         let verdict = all([
             run.ok(),
             if is_link { Ok(()) } else { Err("the link was replaced by a file".to_owned()) },
@@ -738,19 +823,31 @@ fn writes(ctx: &mut Ctx) {
     for umask in ["022", "077", "002"] {
         let out = ctx.path(&format!("w/umask{umask}.ply"));
         let mut cmd = Command::new("sh");
-        cmd.arg("-c").arg(format!("umask {umask}; exec \"$0\" convert \"$1\" \"$2\"")).arg(&ctx.bin).arg(&cube).arg(&out);
+        cmd.arg("-c")
+            .arg(format!("umask {umask}; exec \"$0\" convert \"$1\" \"$2\""))
+            .arg(&ctx.bin)
+            .arg(&cube)
+            .arg(&out);
         cmd.stdin(Stdio::null());
         let run = ctx.run_command(cmd, Cap { secs: 10.0, mib: 512 }, false);
         let want = 0o666 & !u32::from_str_radix(umask, 8).unwrap_or(0);
-        let got = std::fs::metadata(&out).map(|m| m.mode() & 0o777).unwrap_or(0);
-        ctx.row(format!("new file under umask {umask}: mode {want:o}"), &run, all([run.ok(), if got == want { Ok(()) } else { Err(format!("mode {got:o}")) }]));
+        let got = std::fs::metadata(&out).map_or(0, |m| m.mode() & 0o777);
+        ctx.row(
+            format!("new file under umask {umask}: mode {want:o}"),
+            &run,
+            all([run.ok(), if got == want { Ok(()) } else { Err(format!("mode {got:o}")) }]),
+        );
     }
     for mode in [0o644, 0o664, 0o600] {
         let out = ctx.write(&format!("w/existing{mode:o}.ply"), "old");
         let _ = std::fs::set_permissions(&out, std::fs::Permissions::from_mode(mode));
         let run = ctx.run(&["convert", s(&cube), s(&out)], Cap { secs: 10.0, mib: 512 });
-        let got = std::fs::metadata(&out).map(|m| m.mode() & 0o777).unwrap_or(0);
-        ctx.row(format!("overwrite a {mode:o} file: mode kept"), &run, all([run.ok(), if got == mode { Ok(()) } else { Err(format!("mode {got:o}")) }]));
+        let got = std::fs::metadata(&out).map_or(0, |m| m.mode() & 0o777);
+        ctx.row(
+            format!("overwrite a {mode:o} file: mode kept"),
+            &run,
+            all([run.ok(), if got == mode { Ok(()) } else { Err(format!("mode {got:o}")) }]),
+        );
     }
     // The output may not be the input, by any name.
     let ply = ctx.path("w/self.ply");
@@ -770,19 +867,34 @@ fn writes(ctx: &mut Ctx) {
     ] {
         let run = ctx.run(&args, CAP);
         let same = std::fs::read(&ply).unwrap_or_default() == before;
-        ctx.row(case, &run, all([run.refused(&["self.ply"]), if same { Ok(()) } else { Err("the input was changed".to_owned()) }]));
+        ctx.row(
+            case,
+            &run,
+            all([run.refused(&["self.ply"]), if same { Ok(()) } else { Err("the input was changed".to_owned()) }]),
+        );
     }
     let pts = ctx.write("w/pts.xyz", unit_cube_xyz(500, 5));
     let before = std::fs::read(&pts).unwrap_or_default();
     let run = ctx.run(&["reconstruct", s(&pts), "-o", s(&pts)], CAP);
     let same = std::fs::read(&pts).unwrap_or_default() == before;
-    ctx.row("`reconstruct a.xyz -o a.xyz`", &run, all([run.refused(&["pts.xyz"]), if same { Ok(()) } else { Err("the input was changed".to_owned()) }]));
+    ctx.row(
+        "`reconstruct a.xyz -o a.xyz`",
+        &run,
+        all([run.refused(&["pts.xyz"]), if same { Ok(()) } else { Err("the input was changed".to_owned()) }]),
+    );
     // --no-clobber.
     let existing = ctx.write("w/keep.obj", "keep");
-    for args in [vec!["convert", "--no-clobber", s(&cube), s(&existing)], vec!["decimate", "--no-clobber", s(&cube), "--ratio", "0.5", "-o", s(&existing)]] {
+    for args in [
+        vec!["convert", "--no-clobber", s(&cube), s(&existing)],
+        vec!["decimate", "--no-clobber", s(&cube), "--ratio", "0.5", "-o", s(&existing)],
+    ] {
         let run = ctx.run(&args, CAP);
         let same = std::fs::read(&existing).unwrap_or_default() == b"keep";
-        ctx.row(format!("`{} --no-clobber` onto an existing file", args[0]), &run, all([run.refused(&["keep.obj"]), if same { Ok(()) } else { Err("the file was replaced".to_owned()) }]));
+        ctx.row(
+            format!("`{} --no-clobber` onto an existing file", args[0]),
+            &run,
+            all([run.refused(&["keep.obj"]), if same { Ok(()) } else { Err("the file was replaced".to_owned()) }]),
+        );
     }
     // A signal during a write: no temporary left, the conventional exit code.
     let n = 1_500_000u32;
@@ -804,7 +916,10 @@ fn writes(ctx: &mut Ctx) {
         let mut status = None;
         while started.elapsed() < Duration::from_secs(60) {
             if !temporaries(&outdir).is_empty() {
-                signalled = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().is_ok_and(|st| st.success());
+                signalled = Command::new("kill")
+                    .args([&format!("-{signal}"), &child.id().to_string()])
+                    .status()
+                    .is_ok_and(|st| st.success());
                 break;
             }
             if let Ok(Some(st)) = child.try_wait() {
@@ -823,7 +938,11 @@ fn writes(ctx: &mut Ctx) {
         let left = temporaries(&outdir);
         let verdict = all([
             if signalled { Ok(()) } else { Err("no temporary seen to signal during".to_owned()) },
-            if status.and_then(|s| s.code()) == Some(code) { Ok(()) } else { Err(format!("exit {status:?}, wanted {code}")) },
+            if status.and_then(|s| s.code()) == Some(code) {
+                Ok(())
+            } else {
+                Err(format!("exit {status:?}, wanted {code}"))
+            },
             if left.is_empty() { Ok(()) } else { Err(format!("left {left:?}")) },
         ]);
         let run = Run { code: status.and_then(|s| s.code()), secs: started.elapsed().as_secs_f64(), ..Run::default() };
@@ -878,7 +997,14 @@ fn streams(ctx: &mut Ctx) {
         } else {
             run.refused(&["standard output"])
         };
-        ctx.row(format!("`{}`: stdout holds the data only", args.iter().map(|a| a.rsplit('/').next().unwrap_or(a)).collect::<Vec<_>>().join(" ")), &run, verdict);
+        ctx.row(
+            format!(
+                "`{}`: stdout holds the data only",
+                args.iter().map(|a| a.rsplit('/').next().unwrap_or(a)).collect::<Vec<_>>().join(" ")
+            ),
+            &run,
+            verdict,
+        );
     }
     for ext in ["ply.gz", "obj.gz", "stl.gz", "xyz.gz", "off.gz"] {
         let out = ctx.path(&format!("s/out.{ext}"));
@@ -886,7 +1012,11 @@ fn streams(ctx: &mut Ctx) {
         let bytes = std::fs::read(&out).unwrap_or_default();
         let gz = bytes.starts_with(&[0x1f, 0x8b]);
         let back = if gz { ctx.run(&["info", s(&out)], CAP).ok() } else { Ok(()) };
-        ctx.row(format!("`convert a.obj out.{ext}` is gzip and reads back"), &run, all([run.ok(), if gz { Ok(()) } else { Err("not gzip".to_owned()) }, back]));
+        ctx.row(
+            format!("`convert a.obj out.{ext}` is gzip and reads back"),
+            &run,
+            all([run.ok(), if gz { Ok(()) } else { Err("not gzip".to_owned()) }, back]),
+        );
     }
 }
 
@@ -901,13 +1031,25 @@ fn options(ctx: &mut Ctx) {
     for (case, args, needle) in [
         ("`reconstruct --bits 0`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--bits", "0"], "bits"),
         ("`reconstruct --bits 40`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--bits", "40"], "bits"),
-        ("`reconstruct --write-level 9`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--write-level", "9"], "write-level"),
+        (
+            "`reconstruct --write-level 9`",
+            vec!["reconstruct", sp, "-o", "o/b.mrq", "--write-level", "9"],
+            "write-level",
+        ),
         ("`reconstruct --zstd-level 0`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--zstd-level", "0"], "zstd-level"),
         ("`reconstruct --zstd-level 23`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--zstd-level", "23"], "zstd-level"),
-        ("`reconstruct -o out.ply --bits 12` (bits mean nothing in PLY)", vec!["reconstruct", sp, "-o", "o/b.ply", "--bits", "12"], "bits"),
+        (
+            "`reconstruct -o out.ply --bits 12` (bits mean nothing in PLY)",
+            vec!["reconstruct", sp, "-o", "o/b.ply", "--bits", "12"],
+            "bits",
+        ),
         ("`reconstruct --max-level 40`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--max-level", "40"], "max-level"),
         ("`reconstruct --threads 0`", vec!["reconstruct", sp, "-o", "o/b.mrq", "--threads", "0"], "threads"),
-        ("`decimate --target-faces 0`", vec!["decimate", s(&ply), "-o", "o/d.obj", "--target-faces", "0"], "target-faces"),
+        (
+            "`decimate --target-faces 0`",
+            vec!["decimate", s(&ply), "-o", "o/d.obj", "--target-faces", "0"],
+            "target-faces",
+        ),
         ("`decimate --ratio 1.5`", vec!["decimate", s(&ply), "-o", "o/d.obj", "--ratio", "1.5"], "ratio"),
         ("`decimate --max-error -1`", vec!["decimate", s(&ply), "-o", "o/d.obj", "--max-error", "-1"], "max-error"),
         ("`export --screen-error 0`", vec!["export", s(&ply), "-o", "o/e.glb", "--screen-error", "0"], "screen-error"),
@@ -940,24 +1082,53 @@ fn messages(ctx: &mut Ctx) {
         *b ^= 0x55;
     }
     let broken_mrq = ctx.write("m/broken.mrq", mrq);
-    for (case, input) in [("truncated binary PLY", &broken_ply), ("OBJ face index 99 of 3", &broken_obj), ("truncated STL", &broken_stl), ("MRQ with a bad checksum", &broken_mrq)] {
+    for (case, input) in [
+        ("truncated binary PLY", &broken_ply),
+        ("OBJ face index 99 of 3", &broken_obj),
+        ("truncated STL", &broken_stl),
+        ("MRQ with a bad checksum", &broken_mrq),
+    ] {
         let name = input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let run = ctx.run(&["convert", s(input), "m/result-file.obj"], CAP);
         let blames_output = run.stderr.contains("result-file");
-        ctx.row(format!("`convert` a {case}: the message names the input"), &run, all([run.refused(&[&name]), if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) }]));
+        ctx.row(
+            format!("`convert` a {case}: the message names the input"),
+            &run,
+            all([
+                run.refused(&[&name]),
+                if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) },
+            ]),
+        );
     }
     let degenerate = ctx.write("m/degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n".to_owned() + &"f 1 1 1\n".repeat(100));
     let run = ctx.run(&["export", s(&degenerate), "-o", "m/result-file.glb"], CAP);
     let blames_output = run.stderr.contains("result-file");
-    ctx.row("`export` a mesh of degenerate triangles: the message names the input", &run, all([run.refused(&["degenerate.obj"]), if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) }]));
+    ctx.row(
+        "`export` a mesh of degenerate triangles: the message names the input",
+        &run,
+        all([
+            run.refused(&["degenerate.obj"]),
+            if blames_output { Err(format!("blames the output: {}", first_line(&run.stderr))) } else { Ok(()) },
+        ]),
+    );
     let mut denormal = String::new();
     for i in 0..3000u32 {
-        let _ = writeln!(denormal, "{:e} {:e} {:e}", f64::from(i) * 1e-310, f64::from(i % 17) * 1e-310, f64::from(i % 13) * 1e-310);
+        let _ = writeln!(
+            denormal,
+            "{:e} {:e} {:e}",
+            f64::from(i) * 1e-310,
+            f64::from(i % 17) * 1e-310,
+            f64::from(i % 13) * 1e-310
+        );
     }
     let den = ctx.write("m/denormal.xyz", denormal);
     let run = ctx.run(&["reconstruct", s(&den), "-o", "m/den.mrq"], CAP);
     let wrong = run.stderr.contains("only 1 distinct");
-    ctx.row("`reconstruct` 3,000 distinct denormal points: no 'only 1 distinct point'", &run, all([run.clean(), if wrong { Err(first_line(&run.stderr)) } else { Ok(()) }]));
+    ctx.row(
+        "`reconstruct` 3,000 distinct denormal points: no 'only 1 distinct point'",
+        &run,
+        all([run.clean(), if wrong { Err(first_line(&run.stderr)) } else { Ok(()) }]),
+    );
     // gzip errors at their real offset.
     let mut obj = String::new();
     for i in 0..20_000 {
@@ -973,16 +1144,31 @@ fn messages(ctx: &mut Ctx) {
     let mut bad_crc = gz.clone();
     let n = bad_crc.len();
     bad_crc[n - 8] ^= 1;
-    for (case, bytes) in [("corrupt in the middle", flipped), ("truncated at two thirds", truncated.to_vec()), ("with a wrong CRC", bad_crc)] {
+    for (case, bytes) in [
+        ("corrupt in the middle", flipped),
+        ("truncated at two thirds", truncated.to_vec()),
+        ("with a wrong CRC", bad_crc),
+    ] {
         let p = ctx.write("m/bad.obj.gz", bytes);
         let run = ctx.run(&["info", s(&p)], CAP);
         let err = run.stderr.clone();
-        let at_zero = err.contains("byte 0 ") || err.contains("byte 0:") || err.contains("byte 0)") || err.trim_end().ends_with("byte 0");
-        ctx.row(format!("`info` a .obj.gz {case}: the offset is not 'byte 0'"), &run, all([run.refused(&["bad.obj.gz"]), if at_zero { Err(first_line(&err)) } else { Ok(()) }]));
+        let at_zero = err.contains("byte 0 ")
+            || err.contains("byte 0:")
+            || err.contains("byte 0)")
+            || err.trim_end().ends_with("byte 0");
+        ctx.row(
+            format!("`info` a .obj.gz {case}: the offset is not 'byte 0'"),
+            &run,
+            all([run.refused(&["bad.obj.gz"]), if at_zero { Err(first_line(&err)) } else { Ok(()) }]),
+        );
     }
     let cube = ctx.write("m/cube.obj", CUBE_OBJ);
     let run = ctx.run(&["decimate", s(&cube), "-o", "m/d.obj"], CAP);
-    ctx.row("`decimate` without a target names every way to give one", &run, run.refused(&["--target-faces", "--ratio", "--max-error"]));
+    ctx.row(
+        "`decimate` without a target names every way to give one",
+        &run,
+        run.refused(&["--target-faces", "--ratio", "--max-error"]),
+    );
     // A folder with a file whose name is not UTF-8.
     let vdir = ctx.path("m/dir");
     let _ = std::fs::create_dir_all(&vdir);
@@ -992,12 +1178,26 @@ fn messages(ctx: &mut Ctx) {
     let run = ctx.run(&["validate", s(&vdir)], CAP);
     let text = run.all_lower();
     let reported = text.contains("odd-");
-    ctx.row("`validate DIR` with a non-UTF-8 file name reports that file", &run, all([run.clean(), if odd_written && reported { Ok(()) } else { Err("the odd name is not in the output".to_owned()) }]));
+    ctx.row(
+        "`validate DIR` with a non-UTF-8 file name reports that file",
+        &run,
+        all([
+            run.clean(),
+            if odd_written && reported { Ok(()) } else { Err("the odd name is not in the output".to_owned()) },
+        ]),
+    );
     let bad = ctx.write("m/middle.ply", &ply);
     let run = ctx.run(&["info", "--json", s(&cube), s(&bad), s(&den)], CAP);
     let out = run.stdout_text();
     let both = out.contains("cube.obj") && out.contains("denormal.xyz");
-    ctx.row("`info --json a bad c` reports every file", &run, all([run.refused(&["middle.ply"]), if both { Ok(()) } else { Err("not every good file is in the JSON".to_owned()) }]));
+    ctx.row(
+        "`info --json a bad c` reports every file",
+        &run,
+        all([
+            run.refused(&["middle.ply"]),
+            if both { Ok(()) } else { Err("not every good file is in the JSON".to_owned()) },
+        ]),
+    );
 }
 
 /// Every subcommand states the ceiling in its help, and the ceiling holds.
@@ -1024,7 +1224,8 @@ fn ceiling(ctx: &mut Ctx) {
             missing.push(c.clone());
         }
     }
-    let verdict = if missing.is_empty() { Ok(()) } else { Err(format!("no --max-memory in the help of {}", missing.join(", "))) };
+    let verdict =
+        if missing.is_empty() { Ok(()) } else { Err(format!("no --max-memory in the help of {}", missing.join(", "))) };
     ctx.note(format!("`--max-memory` in the help of all {} subcommands", subcommands.len()), 0.0, verdict);
     let xyz = ctx.write("c/pts.xyz", unit_cube_xyz(200_000, 11));
     let cube = ctx.write("c/cube.obj", CUBE_OBJ);
@@ -1033,10 +1234,16 @@ fn ceiling(ctx: &mut Ctx) {
     let m = s(&mrq);
     for (case, args) in [
         ("`info --max-memory 1M` 200,000 points", vec!["info", "--max-memory", "1M", s(&xyz)]),
-        ("`reconstruct --max-memory 1M` 200,000 points", vec!["reconstruct", "--max-memory", "1M", s(&xyz), "-o", "c/r.mrq"]),
+        (
+            "`reconstruct --max-memory 1M` 200,000 points",
+            vec!["reconstruct", "--max-memory", "1M", s(&xyz), "-o", "c/r.mrq"],
+        ),
         ("`convert --max-memory 1K` an MRQ", vec!["convert", "--max-memory", "1K", m, "c/x.ply"]),
         ("`validate --max-memory 1K` an MRQ", vec!["validate", "--max-memory", "1K", m]),
-        ("`decimate --max-memory 1K` an MRQ", vec!["decimate", "--max-memory", "1K", m, "--ratio", "0.5", "-o", "c/d.obj"]),
+        (
+            "`decimate --max-memory 1K` an MRQ",
+            vec!["decimate", "--max-memory", "1K", m, "--ratio", "0.5", "-o", "c/d.obj"],
+        ),
         ("`export --max-memory 1K` an OBJ", vec!["export", "--max-memory", "1K", s(&cube), "-o", "c/e.glb"]),
         ("`extract --max-memory 1K` an MRQ", vec!["extract", "--max-memory", "1K", m, "-o", "c/x.obj"]),
     ] {
