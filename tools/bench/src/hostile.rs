@@ -1251,3 +1251,42 @@ fn ceiling(ctx: &mut Ctx) {
         ctx.row(case, &run, all([run.refused(&["max-memory"]), run.within(5.0, 200.0)]));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_peak_of_a_live_process_is_read() {
+        let (hwm, rss) = memory_of(std::process::id()).unwrap();
+        assert!(rss > 0 && hwm >= rss, "VmHWM {hwm} KiB, VmRSS {rss} KiB");
+        assert_eq!(memory_of(u32::MAX), None);
+    }
+
+    #[test]
+    fn a_refusal_needs_a_clean_nonzero_exit_and_every_word() {
+        let run = |code, stderr: &str| Run { code: Some(code), stderr: stderr.to_owned(), ..Run::default() };
+        assert!(run(2, "error: a.ply: trailing data").refused(&["a.ply", "TRAILING"]).is_ok());
+        assert!(run(2, "error: a.ply: trailing data").refused(&["b.ply"]).is_err());
+        assert!(run(0, "").refused(&[]).is_err(), "exit 0 is no refusal");
+        assert!(run(101, "thread 'main' panicked at src/x.rs").refused(&[]).is_err());
+        assert!(run(134, "memory allocation of 8589934592 bytes failed").clean().is_err());
+        let killed = Run { capped: Some("time cap"), ..Run::default() };
+        assert!(killed.ok().is_err() && killed.exit() == "killed (time cap)");
+    }
+
+    #[test]
+    fn polygons_have_the_corners_asked_for() {
+        for shape in ["pairs", "laps", "point", "collinear"] {
+            let obj = polygon_obj(3000, shape);
+            let face = obj.lines().find(|l| l.starts_with("f ")).unwrap();
+            assert_eq!(face.split_whitespace().count() - 1, 3000, "{shape}");
+            let distinct = obj.lines().filter(|l| l.starts_with("v ")).count();
+            assert_eq!(
+                distinct,
+                [1500, 1000, 1, 3000]
+                    [["pairs", "laps", "point", "collinear"].iter().position(|s| *s == shape).unwrap()]
+            );
+        }
+    }
+}
