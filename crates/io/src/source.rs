@@ -92,6 +92,16 @@ impl<R: BufRead> Stream<R> {
             Self::Gzip(d) => d.read(buf),
         }
     }
+
+    /// One [`Self::read`], retried while it is interrupted.
+    fn read_retrying(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        loop {
+            match self.read(buf) {
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                other => return other,
+            }
+        }
+    }
 }
 
 /// Whether `data` starts with the gzip signature.
@@ -121,34 +131,45 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
     let mut rule: Option<Rule> = None;
     let mut checked = 0usize;
     loop {
-        let mut want = CHUNK as u64;
-        if let Some(Rule::EndsBy { end, .. }) = rule {
-            // One byte past the bound is enough to know there is trailing data.
-            want = want.min((end + 1).saturating_sub(data.len() as u64)).max(1);
-        }
-        want = want.min(ceiling.saturating_add(1).saturating_sub(data.len() as u64)).max(1);
         let start = data.len();
-        if data.capacity() - start < want as usize {
-            // Double, but never past the ceiling (and one byte to see it passed).
-            let room = ceiling.saturating_add(1).saturating_sub(start as u64);
-            let more = (start.max(CHUNK) as u64).min(room).max(want);
-            data.reserve_exact(more as usize);
-        }
-        data.resize(start + want as usize, 0);
-        let n = loop {
-            match stream.read(&mut data[start..]) {
-                Ok(n) => break n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+        let n = if start as u64 >= ceiling {
+            // The buffer holds the ceiling: one byte more, read aside, tells whether the input
+            // goes on (growing the buffer for that byte would copy it whole: twice the ceiling).
+            let mut one = [0u8; 1];
+            let n = stream.read_retrying(&mut one).map_err(|e| stream_error(e, &stream, start))?;
+            if n > 0 {
+                return Err(exceeded(ceiling, start as u64 + 1, "the input's bytes", Location::Byte(ceiling)));
+            }
+            0
+        } else {
+            let mut want = CHUNK as u64;
+            if let Some(Rule::EndsBy { end, .. }) = rule {
+                // One byte past the bound is enough to know there is trailing data.
+                want = want.min((end + 1).saturating_sub(start as u64)).max(1);
+            }
+            want = want.min(ceiling - start as u64).max(1);
+            if data.capacity() - start < want as usize {
+                // Double, but never past the ceiling; and when the doubling after this one would
+                // stop at the ceiling, take all the room now: a last small step would copy a
+                // buffer of nearly the ceiling into one of the ceiling, holding both at once.
+                let room = ceiling - start as u64;
+                let mut more = (start.max(CHUNK) as u64).min(room).max(want);
+                if room - more < start as u64 + more {
+                    more = room;
+                }
+                data.reserve_exact(more as usize);
+            }
+            data.resize(start + want as usize, 0);
+            let n = match stream.read_retrying(&mut data[start..]) {
+                Ok(n) => n,
                 Err(e) => {
                     data.truncate(start);
                     return Err(stream_error(e, &stream, start));
                 }
-            }
+            };
+            data.truncate(start + n);
+            n
         };
-        data.truncate(start + n);
-        if data.len() as u64 > ceiling {
-            return Err(exceeded(ceiling, data.len() as u64, "the input's bytes", Location::Byte(ceiling)));
-        }
         let eof = n == 0;
         if format.is_none() && (eof || data.len() >= 4096) {
             format = detect_early(path, &data, eof);
