@@ -9,17 +9,10 @@
 // transform puts it near the Earth's surface is drawn over a bare WGS 84 globe (one colour, no
 // imagery layer); a tileset in a local frame (no CRS: its origin near the Earth's centre) is drawn
 // with no globe at all.
-import { views, SIZE, FOV_DEG } from './views.js';
+import { views, pageState, SIZE, FOV_DEG } from './views.js';
 
 const Cesium = window.Cesium;
-const state = { ready: false, error: null };
-window.octowrap = state;
-window.addEventListener('error', (e) => { state.error = String(e.message || e); });
-window.addEventListener('unhandledrejection', (e) => { state.error = String(e.reason && e.reason.message || e.reason); });
-
-const params = new URLSearchParams(location.search);
-const url = params.get('tileset');
-const ERROR_TARGET = Number(params.get('errorTarget') || 16);
+const { state, params, url, ERROR_TARGET } = pageState();
 
 let widget;
 let tileset;

@@ -18,16 +18,9 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { TilesRenderer } from '3d-tiles-renderer';
 import { ImplicitTilingPlugin } from '3d-tiles-renderer/core/plugins';
-import { views, SIZE, FOV_DEG } from './views.js';
+import { views, pageState, SIZE, FOV_DEG } from './views.js';
 
-const state = { ready: false, error: null };
-window.octowrap = state;
-window.addEventListener('error', (e) => { state.error = String(e.message || e); });
-window.addEventListener('unhandledrejection', (e) => { state.error = String(e.reason && e.reason.message || e.reason); });
-
-const params = new URLSearchParams(location.search);
-const url = params.get('tileset');
-const ERROR_TARGET = Number(params.get('errorTarget') || 16);
+const { state, params, url, ERROR_TARGET } = pageState();
 
 const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
 renderer.setPixelRatio(1);

@@ -13,6 +13,18 @@
 export const SIZE = 600;
 export const FOV_DEG = 60;
 
+// A client page's state for check-clients.mjs (`window.octowrap`: ready, error, and what the page
+// adds), with any uncaught error or rejection kept as the page's error, and the page's parameters:
+// `?tileset=URL&errorTarget=PIXELS` (16 by default).
+export function pageState() {
+  const state = { ready: false, error: null };
+  window.octowrap = state;
+  window.addEventListener('error', (e) => { state.error = String(e.message || e); });
+  window.addEventListener('unhandledrejection', (e) => { state.error = String(e.reason && e.reason.message || e.reason); });
+  const params = new URLSearchParams(location.search);
+  return { state, params, url: params.get('tileset'), ERROR_TARGET: Number(params.get('errorTarget') || 16) };
+}
+
 function apply(m, p) {
   return [0, 1, 2].map((r) => m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
 }
