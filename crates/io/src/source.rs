@@ -131,45 +131,7 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
     let mut rule: Option<Rule> = None;
     let mut checked = 0usize;
     loop {
-        let start = data.len();
-        let n = if start as u64 >= ceiling {
-            // The buffer holds the ceiling: one byte more, read aside, tells whether the input
-            // goes on (growing the buffer for that byte would copy it whole: twice the ceiling).
-            let mut one = [0u8; 1];
-            let n = stream.read_retrying(&mut one).map_err(|e| stream_error(e, &stream, start))?;
-            if n > 0 {
-                return Err(exceeded(ceiling, start as u64 + 1, "the input's bytes", Location::Byte(ceiling)));
-            }
-            0
-        } else {
-            let mut want = CHUNK as u64;
-            if let Some(Rule::EndsBy { end, .. }) = rule {
-                // One byte past the bound is enough to know there is trailing data.
-                want = want.min((end + 1).saturating_sub(start as u64)).max(1);
-            }
-            want = want.min(ceiling - start as u64).max(1);
-            if data.capacity() - start < want as usize {
-                // Double, but never past the ceiling; and when the doubling after this one would
-                // stop at the ceiling, take all the room now: a last small step would copy a
-                // buffer of nearly the ceiling into one of the ceiling, holding both at once.
-                let room = ceiling - start as u64;
-                let mut more = (start.max(CHUNK) as u64).min(room).max(want);
-                if room - more < start as u64 + more {
-                    more = room;
-                }
-                data.reserve_exact(more as usize);
-            }
-            data.resize(start + want as usize, 0);
-            let n = match stream.read_retrying(&mut data[start..]) {
-                Ok(n) => n,
-                Err(e) => {
-                    data.truncate(start);
-                    return Err(stream_error(e, &stream, start));
-                }
-            };
-            data.truncate(start + n);
-            n
-        };
+        let n = read_more(&mut stream, &mut data, ceiling, rule)?;
         let eof = n == 0;
         if format.is_none() && (eof || data.len() >= 4096) {
             format = detect_early(path, &data, eof);
@@ -221,6 +183,54 @@ pub(crate) fn load(input: impl Read, path: Option<&Path>, opts: &ReadOptions) ->
     })?;
     data.shrink_to_fit();
     Ok(Loaded { format, data })
+}
+
+/// Reads the next piece of `stream` onto `data`, growing it without passing `ceiling`; returns
+/// the bytes read (0 at the end). Under a body-end `rule`, reads no further than one byte past it.
+fn read_more<R: BufRead>(
+    stream: &mut Stream<R>,
+    data: &mut Vec<u8>,
+    ceiling: u64,
+    rule: Option<Rule>,
+) -> Result<usize> {
+    let start = data.len();
+    if start as u64 >= ceiling {
+        // The buffer holds the ceiling: one byte more, read aside, tells whether the input
+        // goes on (growing the buffer for that byte would copy it whole: twice the ceiling).
+        let mut one = [0u8; 1];
+        let n = stream.read_retrying(&mut one).map_err(|e| stream_error(e, stream, start))?;
+        if n > 0 {
+            return Err(exceeded(ceiling, start as u64 + 1, "the input's bytes", Location::Byte(ceiling)));
+        }
+        return Ok(0);
+    }
+    let mut want = CHUNK as u64;
+    if let Some(Rule::EndsBy { end, .. }) = rule {
+        // One byte past the bound is enough to know there is trailing data.
+        want = want.min((end + 1).saturating_sub(start as u64)).max(1);
+    }
+    want = want.min(ceiling - start as u64).max(1);
+    if data.capacity() - start < want as usize {
+        // Double, but never past the ceiling; and when the doubling after this one would
+        // stop at the ceiling, take all the room now: a last small step would copy a
+        // buffer of nearly the ceiling into one of the ceiling, holding both at once.
+        let room = ceiling - start as u64;
+        let mut more = (start.max(CHUNK) as u64).min(room).max(want);
+        if room - more < start as u64 + more {
+            more = room;
+        }
+        data.reserve_exact(more as usize);
+    }
+    data.resize(start + want as usize, 0);
+    let n = match stream.read_retrying(&mut data[start..]) {
+        Ok(n) => n,
+        Err(e) => {
+            data.truncate(start);
+            return Err(stream_error(e, stream, start));
+        }
+    };
+    data.truncate(start + n);
+    Ok(n)
 }
 
 /// The format, once the first bytes are in: a signature, else the extension, else (only with the

@@ -59,7 +59,6 @@ struct Made {
     bytes: u64,
 }
 
-#[allow(clippy::too_many_lines)] // the export's steps in order
 pub(crate) fn write_tileset(
     path: &Path,
     mut h: Hierarchy,
@@ -75,95 +74,19 @@ pub(crate) fn write_tileset(
     octowrap_fsutil::check_output(path, &file_opts).map_err(|e| Error::io(&name, e))?;
     let (world_from_local, frame_text) = place(&mut h, frame)?;
     let tree = opts.partition.tiles(&h)?;
-    let finest = h.levels.len() - 1;
     let implicit = opts.implicit.then(|| Implicit::of(&tree));
     let mut export = octowrap_export::ExportOptions::default();
     export.quantize = opts.quantize;
     export.meshopt = opts.meshopt;
     export.colors = opts.colors;
     let mut made: Vec<Option<Made>> = vec![None; tree.nodes.len()];
-    for (k, level) in h.levels.iter().enumerate() {
-        let ids: Vec<usize> = (0..tree.nodes.len()).filter(|&i| tree.nodes[i].level == k).collect();
-        let mut tile_of = vec![u32::MAX; level.mesh.faces.len()];
-        for &i in &ids {
-            for &f in &tree.nodes[i].faces {
-                tile_of[f as usize] = i as u32;
-            }
-        }
-        let geometry = LevelGeometry::new(&level.mesh);
-        let finest_mesh = &h.levels[finest].mesh;
-        let errors: Vec<f64> = ids
-            .par_iter()
-            .map(|&i| {
-                let node = &tree.nodes[i];
-                if k == finest || node.faces.is_empty() {
-                    return 0.0;
-                }
-                let d = octowrap_decimate::metrics::certified_hausdorff(
-                    &subset(&level.mesh, &node.faces),
-                    &subset(finest_mesh, &tree.regions[i]),
-                );
-                if d.upper.is_finite() { d.upper } else { 0.0 }
-            })
-            .collect();
-        let push_back = errors.iter().copied().fold(0.0, f64::max);
-        let written: Result<Vec<Made>, Error> = ids
-            .par_iter()
-            .zip(&errors)
-            .map(|(&i, &error)| {
-                let node = &tree.nodes[i];
-                if node.faces.is_empty() {
-                    return Ok(Made { error, bounds: Aabb::EMPTY, bytes: 0 });
-                }
-                let flange = if opts.flange { geometry.flange(&node.faces, &tile_of, i as u32) } else { Vec::new() };
-                let mesh = geometry.content(&node.faces, &flange, push_back);
-                let bounds = Aabb::from_points(
-                    mesh.vertices.positions.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect::<Vec<_>>().iter(),
-                );
-                let (glb, _) = octowrap_export::to_glb(&Hierarchy::single(mesh), &export)?;
-                let file = dir.join(content_uri(&tree, i, implicit.as_ref()));
-                let shown = file.display().to_string();
-                if let Some(parent) = file.parent() {
-                    std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
-                }
-                octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&glb))
-                    .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| {
-                        Error::io(&shown, e)
-                    })?;
-                Ok(Made { error, bounds, bytes: glb.len() as u64 })
-            })
-            .collect();
-        for (&i, m) in ids.iter().zip(written?) {
+    for k in 0..h.levels.len() {
+        for (i, m) in write_level(&h, k, &tree, &Out { dir: &dir, export: &export, flange: opts.flange, implicit: implicit.as_ref() })? {
             made[i] = Some(m);
         }
     }
     let mut made: Vec<Made> = made.into_iter().map(|m| m.expect("every level was written")).collect();
-    // Children after parents: walking backwards settles every child before its parent.
-    for i in (0..tree.nodes.len()).rev() {
-        for &c in &tree.nodes[i].children {
-            let child = made[c];
-            made[i].error = made[i].error.max(child.error);
-            made[i].bounds = made[i].bounds.union(&child.bounds);
-        }
-    }
-    let mut subtree_bytes = 0;
-    if let Some(imp) = &implicit {
-        // The implicit root: the cube, and the error that halves per level without falling
-        // under any implicit tile's measured one; the explicit tiles above it hold both.
-        let root_error = (0..tree.nodes.len())
-            .filter(|&i| tree.nodes[i].level >= imp.base)
-            .map(|i| made[i].error * f64::from(1u32 << tree.nodes[i].cell.depth))
-            .fold(0.0, f64::max);
-        let mut i = imp.root;
-        made[i].error = root_error;
-        made[i].bounds = made[i].bounds.union(&tree.cube);
-        while let Some(p) = (0..i).rev().find(|&p| tree.nodes[p].children.contains(&i)) {
-            made[p].error = made[p].error.max(made[i].error);
-            made[p].bounds = made[p].bounds.union(&made[i].bounds);
-            i = p;
-        }
-        subtree_bytes = write_subtrees(&dir, &tree, imp)?;
-    }
+    let subtree_bytes = settle(&tree, &mut made, implicit.as_ref(), &dir)?;
     let mut root = tile_json(&tree, &made, 0, implicit.as_ref());
     root.refine = Some("REPLACE".to_owned());
     root.transform = Some(world_from_local.to_vec());
@@ -197,6 +120,104 @@ pub(crate) fn write_tileset(
         root_error: made[0].error,
         frame: frame_text,
     })
+}
+
+/// Where and how [`write_level`] writes its tiles.
+struct Out<'a> {
+    dir: &'a Path,
+    export: &'a octowrap_export::ExportOptions,
+    flange: bool,
+    implicit: Option<&'a Implicit>,
+}
+
+/// Writes the tiles of level `k`: each tile's content (its faces and, with the flange, the ring
+/// around them) and its measured error; returns each tile's node and what was made.
+fn write_level(h: &Hierarchy, k: usize, tree: &TileTree, out: &Out<'_>) -> Result<Vec<(usize, Made)>, Error> {
+    let level = &h.levels[k];
+    let ids: Vec<usize> = (0..tree.nodes.len()).filter(|&i| tree.nodes[i].level == k).collect();
+    let mut tile_of = vec![u32::MAX; level.mesh.faces.len()];
+    for &i in &ids {
+        for &f in &tree.nodes[i].faces {
+            tile_of[f as usize] = i as u32;
+        }
+    }
+    let geometry = LevelGeometry::new(&level.mesh);
+    let finest_mesh = &h.levels[h.levels.len() - 1].mesh;
+    let errors: Vec<f64> = ids
+        .par_iter()
+        .map(|&i| {
+            let node = &tree.nodes[i];
+            if k == h.levels.len() - 1 || node.faces.is_empty() {
+                return 0.0;
+            }
+            let d = octowrap_decimate::metrics::certified_hausdorff(
+                &subset(&level.mesh, &node.faces),
+                &subset(finest_mesh, &tree.regions[i]),
+            );
+            if d.upper.is_finite() { d.upper } else { 0.0 }
+        })
+        .collect();
+    let push_back = errors.iter().copied().fold(0.0, f64::max);
+    let written: Result<Vec<Made>, Error> = ids
+        .par_iter()
+        .zip(&errors)
+        .map(|(&i, &error)| {
+            let node = &tree.nodes[i];
+            if node.faces.is_empty() {
+                return Ok(Made { error, bounds: Aabb::EMPTY, bytes: 0 });
+            }
+            let flange = if out.flange { geometry.flange(&node.faces, &tile_of, i as u32) } else { Vec::new() };
+            let mesh = geometry.content(&node.faces, &flange, push_back);
+            let bounds = Aabb::from_points(
+                mesh.vertices.positions.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect::<Vec<_>>().iter(),
+            );
+            let (glb, _) = octowrap_export::to_glb(&Hierarchy::single(mesh), out.export)?;
+            let file = out.dir.join(content_uri(tree, i, out.implicit));
+            let shown = file.display().to_string();
+            if let Some(parent) = file.parent() {
+                std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
+            }
+            octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&glb))
+                .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| {
+                    Error::io(&shown, e)
+                })?;
+            Ok(Made { error, bounds, bytes: glb.len() as u64 })
+        })
+        .collect();
+    Ok(ids.into_iter().zip(written?).collect())
+}
+
+/// Raises every tile's error to its children's largest and its box to hold theirs (children
+/// after parents); with implicit tiling, gives the implicit root the error that halves per level
+/// without falling under any implicit tile's measured one, and writes the subtree files (returns
+/// their bytes).
+fn settle(tree: &TileTree, made: &mut [Made], implicit: Option<&Implicit>, dir: &Path) -> Result<u64, Error> {
+    // Children after parents: walking backwards settles every child before its parent.
+    for i in (0..tree.nodes.len()).rev() {
+        for &c in &tree.nodes[i].children {
+            let child = made[c];
+            made[i].error = made[i].error.max(child.error);
+            made[i].bounds = made[i].bounds.union(&child.bounds);
+        }
+    }
+    if let Some(imp) = implicit {
+        // The implicit root: the cube, and the error that halves per level without falling
+        // under any implicit tile's measured one; the explicit tiles above it hold both.
+        let root_error = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].level >= imp.base)
+            .map(|i| made[i].error * f64::from(1u32 << tree.nodes[i].cell.depth))
+            .fold(0.0, f64::max);
+        let mut i = imp.root;
+        made[i].error = root_error;
+        made[i].bounds = made[i].bounds.union(&tree.cube);
+        while let Some(p) = (0..i).rev().find(|&p| tree.nodes[p].children.contains(&i)) {
+            made[p].error = made[p].error.max(made[i].error);
+            made[p].bounds = made[p].bounds.union(&made[i].bounds);
+            i = p;
+        }
+        return write_subtrees(dir, tree, imp);
+    }
+    Ok(0)
 }
 
 /// Implicit tiling's place in the tree: the implicit root and its level.
