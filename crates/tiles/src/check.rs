@@ -200,7 +200,6 @@ fn visit(tile: &Tile, at: &str, dir: &Path, parent: Option<(&Tile, Option<Obb>)>
     }
 }
 
-#[allow(clippy::too_many_lines)] // the subtree walk's rules in the order the module docs list them
 fn check_implicit(tile: &Tile, imp: &ImplicitTiling, at: &str, dir: &Path, r: &mut CheckReport) {
     if !tile.children.is_empty() {
         r.findings.push(format!("{at}: a tile with implicitTiling must not list children"));
@@ -232,26 +231,7 @@ fn check_implicit(tile: &Tile, imp: &ImplicitTiling, at: &str, dir: &Path, r: &m
     while let Some((root, root_parent)) = roots.pop() {
         let uri = implicit::fill(&imp.subtrees.uri, root);
         let sub_at = format!("{at}: subtree {uri}");
-        let bytes = match resolve(dir, &uri) {
-            Ok(file) => match std::fs::read(&file) {
-                Ok(b) => b,
-                Err(e) => {
-                    r.findings.push(format!("{sub_at} cannot be read: {e}"));
-                    continue;
-                }
-            },
-            Err(why) => {
-                r.findings.push(format!("{sub_at} {why}"));
-                continue;
-            }
-        };
-        let sub = match implicit::Subtree::parse(&bytes, n) {
-            Ok(s) => s,
-            Err(why) => {
-                r.findings.push(format!("{sub_at}: {why}"));
-                continue;
-            }
-        };
+        let Some(sub) = read_subtree(dir, &uri, n, &sub_at, r) else { continue };
         if !sub.tiles.get(0) && root_parent {
             r.findings.push(format!("{sub_at}: its root tile is not available but the subtree is"));
         }
@@ -300,17 +280,39 @@ fn check_implicit(tile: &Tile, imp: &ImplicitTiling, at: &str, dir: &Path, r: &m
                     r.findings.push(format!("{sub_at}: tile {cell:?} is available but its parent is not"));
                 }
                 if let (true, Some(template)) = (has_content, content) {
-                    let uri = implicit::fill(template, cell);
-                    match resolve(dir, &uri) {
-                        Err(why) => r.findings.push(format!("{sub_at}: content uri '{uri}' {why}")),
-                        Ok(file) => match glb_problem(&file) {
-                            Some(why) => r.findings.push(format!("{sub_at}: content '{uri}' {why}")),
-                            None => r.contents.push(file),
-                        },
-                    }
+                    check_content(dir, &implicit::fill(template, cell), &sub_at, r);
                 }
             }
         }
+    }
+}
+
+/// The subtree file `uri` names, parsed; `None` with a finding when it cannot be read or parsed.
+fn read_subtree(dir: &Path, uri: &str, n: u8, sub_at: &str, r: &mut CheckReport) -> Option<implicit::Subtree> {
+    let bytes = match resolve(dir, uri) {
+        Ok(file) => match std::fs::read(&file) {
+            Ok(b) => b,
+            Err(e) => {
+                r.findings.push(format!("{sub_at} cannot be read: {e}"));
+                return None;
+            }
+        },
+        Err(why) => {
+            r.findings.push(format!("{sub_at} {why}"));
+            return None;
+        }
+    };
+    implicit::Subtree::parse(&bytes, n).map_err(|why| r.findings.push(format!("{sub_at}: {why}"))).ok()
+}
+
+/// An implicit tile's content `uri`: it must resolve to a glb file, which joins the contents.
+fn check_content(dir: &Path, uri: &str, sub_at: &str, r: &mut CheckReport) {
+    match resolve(dir, uri) {
+        Err(why) => r.findings.push(format!("{sub_at}: content uri '{uri}' {why}")),
+        Ok(file) => match glb_problem(&file) {
+            Some(why) => r.findings.push(format!("{sub_at}: content '{uri}' {why}")),
+            None => r.contents.push(file),
+        },
     }
 }
 

@@ -210,14 +210,17 @@ impl Subtree {
         let (json_len, bin_len) = (u64_at(8), u64_at(16));
         let total = 24u64.checked_add(json_len).and_then(|n| n.checked_add(bin_len));
         if total != Some(bytes.len() as u64) {
-            return Err(format!("offset 8: JSON {json_len} + binary {bin_len} bytes do not fill the {}-byte file", bytes.len()));
+            return Err(format!(
+                "offset 8: JSON {json_len} + binary {bin_len} bytes do not fill the {}-byte file",
+                bytes.len()
+            ));
         }
         if json_len % 8 != 0 || bin_len % 8 != 0 {
             return Err("offset 8: the JSON and binary lengths must be multiples of 8".into());
         }
         let json_end = 24 + json_len as usize;
-        let json: serde_json::Value =
-            serde_json::from_slice(&bytes[24..json_end]).map_err(|e| format!("offset 24: the JSON does not parse: {e}"))?;
+        let json: serde_json::Value = serde_json::from_slice(&bytes[24..json_end])
+            .map_err(|e| format!("offset 24: the JSON does not parse: {e}"))?;
         let bin = &bytes[json_end..];
         if let Some(b) = json["buffers"].as_array() {
             if b.iter().any(|b| b.get("uri").is_some()) {
@@ -240,7 +243,10 @@ impl Subtree {
                 return Err(format!("{what}: bufferView {i} at offset {o} is not 8-byte aligned"));
             }
             if o.checked_add(l).is_none_or(|end| end > bin.len() as u64) {
-                return Err(format!("{what}: bufferView {i} ({o} + {l}) runs past the {}-byte binary chunk", bin.len()));
+                return Err(format!(
+                    "{what}: bufferView {i} ({o} + {l}) runs past the {}-byte binary chunk",
+                    bin.len()
+                ));
             }
             if (l as usize) < bits.div_ceil(8) {
                 return Err(format!("{what}: {l} bytes hold fewer than the {bits} bits needed"));
@@ -256,7 +262,11 @@ impl Subtree {
         Ok(Self {
             tiles: read("tileAvailability", &json["tileAvailability"], n)?,
             content,
-            children: read("childSubtreeAvailability", &json["childSubtreeAvailability"], 1 << (3 * usize::from(levels)))?,
+            children: read(
+                "childSubtreeAvailability",
+                &json["childSubtreeAvailability"],
+                1 << (3 * usize::from(levels)),
+            )?,
         })
     }
 }

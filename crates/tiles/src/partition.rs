@@ -120,76 +120,91 @@ fn centroid(mesh: &Mesh, face: &[u32]) -> DVec3 {
 /// Deepest cell level the partition makes: coordinates stay exact in `u32` and `f64`.
 const MAX_DEPTH: usize = 20;
 
-impl Partition for OctreePartition {
-    #[allow(clippy::too_many_lines, clippy::needless_range_loop)] // one pass per step, in order
-    fn tiles(&self, h: &Hierarchy) -> Result<TileTree, Error> {
-        if h.levels.is_empty() {
-            return Err(Error::invalid("the hierarchy has no levels"));
+/// Refuses a hierarchy the partition cannot tile: no levels, broken links or indices, a
+/// non-finite vertex, a level without faces.
+fn check_tileable(h: &Hierarchy) -> Result<(), Error> {
+    if h.levels.is_empty() {
+        return Err(Error::invalid("the hierarchy has no levels"));
+    }
+    h.check_links().map_err(|e| Error::invalid(e.to_string()))?;
+    for (k, l) in h.levels.iter().enumerate() {
+        l.mesh.check_indices().map_err(|e| Error::invalid(format!("level {k}: {e}")))?;
+        if let Some(v) = l.mesh.vertices.positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::invalid(format!("level {k}: vertex {v} has a non-finite coordinate")));
         }
-        h.check_links().map_err(|e| Error::invalid(e.to_string()))?;
-        for (k, l) in h.levels.iter().enumerate() {
-            l.mesh.check_indices().map_err(|e| Error::invalid(format!("level {k}: {e}")))?;
-            if let Some(v) = l.mesh.vertices.positions.iter().position(|p| !p.is_finite()) {
-                return Err(Error::invalid(format!("level {k}: vertex {v} has a non-finite coordinate")));
-            }
-            if l.mesh.faces.is_empty() {
-                return Err(Error::invalid(format!("level {k} has no faces: every level of a tileset needs some")));
-            }
+        if l.mesh.faces.is_empty() {
+            return Err(Error::invalid(format!("level {k} has no faces: every level of a tileset needs some")));
         }
-        let cube = h
-            .cube
-            .filter(|c| !c.is_empty() && c.size().min_element() > 0.0)
-            .or_else(|| {
-                let mut b = Aabb::EMPTY;
-                for l in &h.levels {
-                    for p in &l.mesh.vertices.positions {
-                        b.grow(*p);
-                    }
+    }
+    Ok(())
+}
+
+/// The cube the cells divide: the hierarchy's own, else a bounding cube of every level.
+fn cube_of(h: &Hierarchy) -> Aabb {
+    h.cube
+        .filter(|c| !c.is_empty() && c.size().min_element() > 0.0)
+        .or_else(|| {
+            let mut b = Aabb::EMPTY;
+            for l in &h.levels {
+                for p in &l.mesh.vertices.positions {
+                    b.grow(*p);
                 }
-                b.bounding_cube(0.001)
-            })
-            .unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE });
+            }
+            b.bounding_cube(0.001)
+        })
+        .unwrap_or(Aabb { min: DVec3::ZERO, max: DVec3::ONE })
+}
+
+/// Per level, each face's cell: the root up to `base`; below it, a subface takes the octant of
+/// its parent's cell that holds its centroid, a created face the cell of its centroid.
+fn face_cells(h: &Hierarchy, base: usize, cube: &Aabb) -> Vec<Vec<Cell>> {
+    let mut cells: Vec<Vec<Cell>> = Vec::with_capacity(h.levels.len());
+    for (k, level) in h.levels.iter().enumerate() {
+        let mesh = &level.mesh;
+        let of_level: Vec<Cell> = if k <= base {
+            vec![Cell::ROOT; mesh.faces.len()]
+        } else {
+            let depth = (k - base) as u8;
+            let parent_cells = &cells[k - 1];
+            mesh.faces
+                .iter()
+                .zip(&level.origins)
+                .map(|(f, o)| {
+                    let c = centroid(mesh, f);
+                    match *o {
+                        FaceOrigin::Subface { parent, .. } => {
+                            let pc = parent_cells[parent as usize];
+                            let mid = pc.bounds(cube).center();
+                            let octant =
+                                u8::from(c.x >= mid.x) | (u8::from(c.y >= mid.y) << 1) | (u8::from(c.z >= mid.z) << 2);
+                            pc.child(octant)
+                        }
+                        FaceOrigin::Created => {
+                            let n = f64::from(1u32 << depth);
+                            let rel = ((c - cube.min) / cube.size() * n).floor();
+                            let max = (1u32 << depth) - 1;
+                            let at = |x: f64| (x.max(0.0) as u32).min(max);
+                            Cell { depth, xyz: [at(rel.x), at(rel.y), at(rel.z)] }
+                        }
+                    }
+                })
+                .collect()
+        };
+        cells.push(of_level);
+    }
+    cells
+}
+
+impl Partition for OctreePartition {
+    fn tiles(&self, h: &Hierarchy) -> Result<TileTree, Error> {
+        check_tileable(h)?;
+        let cube = cube_of(h);
         let base = (0..h.levels.len())
             .rev()
             .find(|&k| h.levels[k].mesh.faces.len() <= self.target_faces)
             .unwrap_or(0)
             .max(h.levels.len().saturating_sub(MAX_DEPTH + 1));
-        // Per level: each face's cell.
-        let mut cells: Vec<Vec<Cell>> = Vec::with_capacity(h.levels.len());
-        for (k, level) in h.levels.iter().enumerate() {
-            let mesh = &level.mesh;
-            let of_level: Vec<Cell> = if k <= base {
-                vec![Cell::ROOT; mesh.faces.len()]
-            } else {
-                let depth = (k - base) as u8;
-                let parent_cells = &cells[k - 1];
-                mesh.faces
-                    .iter()
-                    .zip(&level.origins)
-                    .map(|(f, o)| {
-                        let c = centroid(mesh, f);
-                        match *o {
-                            FaceOrigin::Subface { parent, .. } => {
-                                let pc = parent_cells[parent as usize];
-                                let mid = pc.bounds(&cube).center();
-                                let octant = u8::from(c.x >= mid.x)
-                                    | (u8::from(c.y >= mid.y) << 1)
-                                    | (u8::from(c.z >= mid.z) << 2);
-                                pc.child(octant)
-                            }
-                            FaceOrigin::Created => {
-                                let n = f64::from(1u32 << depth);
-                                let rel = ((c - cube.min) / cube.size() * n).floor();
-                                let max = (1u32 << depth) - 1;
-                                let at = |x: f64| (x.max(0.0) as u32).min(max);
-                                Cell { depth, xyz: [at(rel.x), at(rel.y), at(rel.z)] }
-                            }
-                        }
-                    })
-                    .collect()
-            };
-            cells.push(of_level);
-        }
+        let cells = face_cells(h, base, &cube);
         // Tiles: (level, cell) keys of every face and of every ancestor of one.
         let mut keys: Vec<(usize, Cell)> = Vec::new();
         for (k, of_level) in cells.iter().enumerate() {
@@ -218,8 +233,7 @@ impl Partition for OctreePartition {
                 nodes[index(k, c)].faces.push(f as u32);
             }
         }
-        for i in 0..all.len() {
-            let (k, c) = all[i];
+        for (i, &(k, c)) in all.iter().enumerate() {
             if k > 0 {
                 let p = index(k - 1, if k > base { c.parent() } else { c });
                 nodes[p].children.push(i);

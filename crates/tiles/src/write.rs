@@ -81,7 +81,12 @@ pub(crate) fn write_tileset(
     export.colors = opts.colors;
     let mut made: Vec<Option<Made>> = vec![None; tree.nodes.len()];
     for k in 0..h.levels.len() {
-        for (i, m) in write_level(&h, k, &tree, &Out { dir: &dir, export: &export, flange: opts.flange, implicit: implicit.as_ref() })? {
+        for (i, m) in write_level(
+            &h,
+            k,
+            &tree,
+            &Out { dir: &dir, export: &export, flange: opts.flange, implicit: implicit.as_ref() },
+        )? {
             made[i] = Some(m);
         }
     }
@@ -272,8 +277,9 @@ fn write_subtrees(dir: &Path, tree: &TileTree, imp: &Implicit) -> Result<u64, Er
         if let Some(parent) = file.parent() {
             std::fs::create_dir_all(parent).map_err(|e| Error::io(&shown, e))?;
         }
-        octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&data))
-            .map_err(|(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| Error::io(&shown, e))?;
+        octowrap_fsutil::write_file(&file, &octowrap_fsutil::WriteOptions::default(), |w| w.write_all(&data)).map_err(
+            |(octowrap_fsutil::WriteError::Io(e) | octowrap_fsutil::WriteError::Write(e))| Error::io(&shown, e),
+        )?;
         bytes += data.len() as u64;
         roots.extend(children.into_iter().rev());
     }
@@ -299,10 +305,8 @@ fn tile_json(tree: &TileTree, made: &[Made], i: usize, implicit: Option<&Implici
         geometric_error: m.error,
         refine: None,
         transform: None,
-        content: (!tree.nodes[i].faces.is_empty()).then(|| Content {
-            uri: content_uri(tree, i, implicit),
-            other: std::collections::BTreeMap::default(),
-        }),
+        content: (!tree.nodes[i].faces.is_empty())
+            .then(|| Content { uri: content_uri(tree, i, implicit), other: std::collections::BTreeMap::default() }),
         implicit_tiling: None,
         children: Vec::new(),
         other: std::collections::BTreeMap::default(),
@@ -312,7 +316,8 @@ fn tile_json(tree: &TileTree, made: &[Made], i: usize, implicit: Option<&Implici
             // Implicit tiles subdivide this tile's volume: the octree cube itself.
             let c = tree.cube;
             tile.bounding_volume = BoundingVolume::aligned_box(c.min.to_array(), c.max.to_array());
-            tile.content = Some(Content { uri: CONTENT_TEMPLATE.to_owned(), other: std::collections::BTreeMap::default() });
+            tile.content =
+                Some(Content { uri: CONTENT_TEMPLATE.to_owned(), other: std::collections::BTreeMap::default() });
             tile.implicit_tiling = Some(ImplicitTiling {
                 subdivision_scheme: "OCTREE".to_owned(),
                 subtree_levels: u32::from(imp.subtree_levels),

@@ -43,7 +43,11 @@ fn cracks(flange: bool) -> Option<(Value, usize)> {
     // draws three levels, their borders facing the camera (96 faces a tile: few tiles to load).
     let (eye, target) = ([0.5, -0.45, 0.85], [0.5, 0.5, 0.5]);
     let view: Vec<String> = eye.iter().chain(&target).enumerate().map(|(k, v)| (v - o[k % 3]).to_string()).collect();
-    let r = clients::check_clients(&path, &dir, &["--clients", "three", "--views", "given", "--view", &view.join(","), "--error-target", "10"])?;
+    let r = clients::check_clients(
+        &path,
+        &dir,
+        &["--clients", "three", "--views", "given", "--view", &view.join(","), "--error-target", "10"],
+    )?;
     assert_eq!(r["three"]["errors"].as_array().map(Vec::len), Some(0), "console errors: {}", r["three"]["errors"]);
     let levels: std::collections::BTreeSet<String> = clients::drawn(&r, "three", "given")
         .iter()

@@ -213,7 +213,12 @@ fn implicit_tiling_passes_the_spec_checks_and_a_broken_subtree_is_reported() {
         if let Some(c) = &t.content {
             let depth: i32 = c.uri.rsplit('/').next().unwrap().split('-').next().unwrap().parse().unwrap();
             let implicit_error = root.geometric_error / 2f64.powi(depth);
-            assert!(depth == 0 || implicit_error >= t.geometric_error, "{}: {implicit_error} < {}", c.uri, t.geometric_error);
+            assert!(
+                depth == 0 || implicit_error >= t.geometric_error,
+                "{}: {implicit_error} < {}",
+                c.uri,
+                t.geometric_error
+            );
         }
     }
     support::validate_gltf(&path);

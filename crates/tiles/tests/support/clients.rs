@@ -89,9 +89,23 @@ pub fn assert_refines(report: &Value, client: &str) {
     );
     let near = drawn(report, client, "near");
     let (first, last) = (near.first().expect("tiles drawn near"), near.last().unwrap());
-    assert_eq!(first["geometricError"].as_f64(), Some(0.0), "{client}: the nearest tile is finest: {}", r["views"]["near"]);
-    assert!(last["geometricError"].as_f64().unwrap() > 0.0, "{client}: the farthest tile stays coarse: {}", r["views"]["near"]);
-    assert!(near.len() > far.len(), "{client}: coming closer draws more tiles ({} near, {} far)", near.len(), far.len());
+    assert_eq!(
+        first["geometricError"].as_f64(),
+        Some(0.0),
+        "{client}: the nearest tile is finest: {}",
+        r["views"]["near"]
+    );
+    assert!(
+        last["geometricError"].as_f64().unwrap() > 0.0,
+        "{client}: the farthest tile stays coarse: {}",
+        r["views"]["near"]
+    );
+    assert!(
+        near.len() > far.len(),
+        "{client}: coming closer draws more tiles ({} near, {} far)",
+        near.len(),
+        far.len()
+    );
     for shot in r["screenshots"].as_array().unwrap() {
         let p = Path::new(shot.as_str().unwrap());
         assert!(std::fs::metadata(p).is_ok_and(|m| m.len() > 1000), "{client}: screenshot {}", p.display());
