@@ -35,7 +35,9 @@ fn main() {
         let source = viewer.join(file);
         if source.is_file() {
             let source = source.canonicalize().expect("an existing file has a canonical path");
-            writeln!(code, "    Asset {{ path: {path:?}, mime: {mime:?}, bytes: include_bytes!({source:?}) }},")
+            // A Rust string literal of the path (Debug quotes and escapes it).
+            let literal = format!("{:?}", source.to_string_lossy());
+            writeln!(code, "    Asset {{ path: {path:?}, mime: {mime:?}, bytes: include_bytes!({literal}) }},")
                 .unwrap();
         } else {
             writeln!(missing, "    \"tools/viewer/{file}\",").unwrap();

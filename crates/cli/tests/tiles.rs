@@ -5,9 +5,9 @@
 //! puts it. Artefacts (tilesets, screenshots) stay under `target/tiles-artefacts/`.
 #![allow(clippy::print_stdout)]
 
-mod common;
 #[path = "../../tiles/tests/support/clients.rs"]
 mod clients;
+mod common;
 
 use std::path::Path;
 use std::process::Command;
@@ -86,9 +86,8 @@ fn glb_positions(file: &Path) -> Vec<[f64; 3]> {
     let bin = &bytes[20 + json_len + 8..];
     let node = doc["nodes"].as_array().unwrap().iter().find(|n| n.get("mesh").is_some()).unwrap();
     assert!(node.get("rotation").is_none() && node.get("matrix").is_none(), "{node}");
-    let v3 = |key: &str, d: f64| -> [f64; 3] {
-        node.get(key).map_or([d; 3], |a| [0, 1, 2].map(|k| a[k].as_f64().unwrap()))
-    };
+    let v3 =
+        |key: &str, d: f64| -> [f64; 3] { node.get(key).map_or([d; 3], |a| [0, 1, 2].map(|k| a[k].as_f64().unwrap())) };
     let (t, sc) = (v3("translation", 0.0), v3("scale", 1.0));
     let mesh = &doc["meshes"][node["mesh"].as_u64().unwrap() as usize];
     let acc = &doc["accessors"][mesh["primitives"][0]["attributes"]["POSITION"].as_u64().unwrap() as usize];
@@ -157,12 +156,35 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
+/// The writer's origin: the centre of every level's bounding box, in the CRS.
+fn box_centre(h: &octowrap_mesh::Hierarchy) -> [f64; 3] {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for l in &h.levels {
+        for p in &l.mesh.vertices.positions {
+            for (k, v) in p.to_array().into_iter().enumerate() {
+                lo[k] = lo[k].min(v);
+                hi[k] = hi[k].max(v);
+            }
+        }
+    }
+    [0, 1, 2].map(|k| (lo[k] + hi[k]) * 0.5)
+}
+
+/// The content of a finest tile (geometric error 0).
+fn finest_uri(t: &Value) -> Option<String> {
+    if t["geometricError"].as_f64() == Some(0.0) {
+        if let Some(u) = t["content"]["uri"].as_str() {
+            return Some(u.to_owned());
+        }
+    }
+    t["children"].as_array()?.iter().find_map(finest_uri)
+}
+
 /// The done-means: `reconstruct autzen_trim.laz -o a.mrq && export a.mrq -o
 /// tiles/tileset.json`. The MRQ keeps the CRS; the root transform's origin and the finest tiles'
 /// vertices land within 0.05 m of where pyproj puts the same points in Earth-centred coordinates;
 /// `CesiumJS` draws the tileset on the globe there, and both clients refine it.
 #[test]
-#[allow(clippy::too_many_lines, clippy::items_after_statements)] // one pipeline, checked stage by stage
 fn autzen_tiles_land_where_pyproj_puts_them() {
     let Some(laz) = octowrap_testdata::file("lidar-las/autzen_trim.laz") else {
         return octowrap_testdata::skip("lidar-las/autzen_trim.laz");
@@ -171,14 +193,8 @@ fn autzen_tiles_land_where_pyproj_puts_them() {
     let mrq = dir.join("a.mrq");
     run(&["reconstruct", s(&laz), "-o", s(&mrq)]);
     let f = octowrap_format::read_path(&mrq, &octowrap_format::DecodeOptions::default()).unwrap();
-    let wkt = f
-        .info
-        .metadata
-        .entries
-        .iter()
-        .find(|(k, _)| k == octowrap_format::CRS_KEY)
-        .map(|(_, v)| v.clone())
-        .expect("the MRQ keeps the CRS autzen declares");
+    let wkt = f.info.metadata.entries.iter().find(|(k, _)| k == octowrap_format::CRS_KEY);
+    let wkt = wkt.map(|(_, v)| v.clone()).expect("the MRQ keeps the CRS autzen declares");
     let info = run(&["info", s(&mrq)]);
     assert!(!info.contains("local (no CRS)"), "{info}");
     let tileset = dir.join("tiles/tileset.json");
@@ -186,28 +202,10 @@ fn autzen_tiles_land_where_pyproj_puts_them() {
     assert!(said.contains("frame EPSG:4978"), "{said}");
     let report = octowrap_tiles::check::check_tileset(&tileset).unwrap();
     assert!(report.findings.is_empty(), "{:#?}", report.findings);
-    // The writer's origin: the centre of every level's bounding box, in the CRS.
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for l in &f.hierarchy.levels {
-        for p in &l.mesh.vertices.positions {
-            for (k, v) in p.to_array().into_iter().enumerate() {
-                lo[k] = lo[k].min(v);
-                hi[k] = hi[k].max(v);
-            }
-        }
-    }
-    let origin = [0, 1, 2].map(|k| (lo[k] + hi[k]) * 0.5);
+    let origin = box_centre(&f.hierarchy);
     let ts = read_json(&tileset);
     let m: Vec<f64> = ts["root"]["transform"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    // Vertices of one finest tile (geometric error 0), in ECEF through the root transform.
-    fn finest_uri(t: &Value) -> Option<String> {
-        if t["geometricError"].as_f64() == Some(0.0) {
-            if let Some(u) = t["content"]["uri"].as_str() {
-                return Some(u.to_owned());
-            }
-        }
-        t["children"].as_array()?.iter().find_map(finest_uri)
-    }
+    // Vertices of one finest tile, in ECEF through the root transform.
     let uri = finest_uri(&ts["root"]).expect("a finest tile");
     let local = glb_positions(&tileset.parent().unwrap().join(&uri));
     let picked: Vec<[f64; 3]> = local.iter().step_by((local.len() / 40).max(1)).map(|&p| apply(&m, p)).collect();
@@ -232,7 +230,10 @@ fn autzen_tiles_land_where_pyproj_puts_them() {
     let d = distance(at(&p["ecef"]), at(&theirs["origin_ecef"]));
     assert!(d <= 0.05, "CesiumJS puts the root origin {d} m from pyproj's: {p}");
     let (lon, lat) = (theirs["origin_lonlat"][0].as_f64().unwrap(), theirs["origin_lonlat"][1].as_f64().unwrap());
-    assert!((p["longitude"].as_f64().unwrap() - lon).abs() < 1e-6 && (p["latitude"].as_f64().unwrap() - lat).abs() < 1e-6, "{p} vs {lon} {lat}");
+    assert!(
+        (p["longitude"].as_f64().unwrap() - lon).abs() < 1e-6 && (p["latitude"].as_f64().unwrap() - lat).abs() < 1e-6,
+        "{p} vs {lon} {lat}"
+    );
     for client in ["three", "cesium"] {
         clients::assert_refines(&r, client);
     }
@@ -265,7 +266,11 @@ fn kitten_implicit_tileset_refines_in_both_clients() {
     assert!(report.findings.is_empty(), "{:#?}", report.findings);
     let ts = read_json(&tileset);
     fn implicit_root(t: &Value) -> Option<&Value> {
-        if t.get("implicitTiling").is_some() { Some(t) } else { t["children"].as_array()?.iter().find_map(implicit_root) }
+        if t.get("implicitTiling").is_some() {
+            Some(t)
+        } else {
+            t["children"].as_array()?.iter().find_map(implicit_root)
+        }
     }
     let imp = &implicit_root(&ts["root"]).expect("an implicit root")["implicitTiling"];
     let deepest = imp["availableLevels"].as_u64().unwrap() - 1;
@@ -280,7 +285,11 @@ fn kitten_implicit_tileset_refines_in_both_clients() {
         assert_eq!(c["errors"].as_array().map(Vec::len), Some(0), "{client}: console errors: {}", c["errors"]);
         let far = clients::drawn(&r, client, "far");
         let near = clients::drawn(&r, client, "near");
-        assert!(!far.is_empty() && far.iter().all(|t| implicit_level(t) < deepest), "{client} far: {}", c["views"]["far"]);
+        assert!(
+            !far.is_empty() && far.iter().all(|t| implicit_level(t) < deepest),
+            "{client} far: {}",
+            c["views"]["far"]
+        );
         let (first, last) = (near.first().expect("tiles drawn near"), near.last().unwrap());
         assert_eq!(implicit_level(first), deepest, "{client}: the nearest tile is finest: {}", c["views"]["near"]);
         assert!(implicit_level(last) < deepest, "{client}: the farthest tile stays coarse: {}", c["views"]["near"]);

@@ -212,9 +212,7 @@ mod tests {
 
     #[test]
     fn verdicts_follow_the_gain_and_the_size() {
-        let mut opts = crate::ReconOptions::default();
-        opts.auto_min_gain = 1.5;
-        opts.auto_faces_per_point = 2.0;
+        let opts = crate::ReconOptions { auto_min_gain: 1.5, auto_faces_per_point: 2.0, ..Default::default() };
         let mut a = AutoLevel::new(5, 20, 1000, &opts);
         assert!(a.measures(5) && !a.measures(4));
         assert_eq!(a.verdict(5, 100, 1.0), Verdict::Continue);

@@ -501,17 +501,14 @@ impl<'a> Run<'a> {
             before_snap = self.fit_to_points(j, rep.kind, next, fixed, near_lines);
         }
         if near {
-            match before_snap {
+            if let Some(free) = before_snap {
                 // The constrained passes moved the free vertices too: the vertices of a face
                 // they fold go back to where they were before the snap (free).
-                Some(free) => {
-                    mapping::unfold_refit(&mut next.positions, &free, &next.quads, lines);
-                }
-                None => {
-                    let free = next.positions.clone();
-                    mapping::near_lines(&mut next.positions, lines, reach * voxel_size(j));
-                    mapping::free_folding_lines(&mut next.positions, &free, &next.quads, lines);
-                }
+                mapping::unfold_refit(&mut next.positions, &free, &next.quads, lines);
+            } else {
+                let free = next.positions.clone();
+                mapping::near_lines(&mut next.positions, lines, reach * voxel_size(j));
+                mapping::free_folding_lines(&mut next.positions, &free, &next.quads, lines);
             }
         }
         if fit_here && j == self.finest && self.auto.is_none() {

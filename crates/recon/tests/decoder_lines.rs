@@ -96,6 +96,11 @@ fn subdivided_levels_keep_their_lines() {
     let trusted = r.trusted_level as usize;
     assert!(trusted + 2 <= 6, "the sphere is dense enough for level {trusted}: no subdivided parent");
     for (k, l) in r.levels.iter().enumerate().skip(trusted + 2) {
-        assert!(l.on_lines * 2 > l.vertices, "level {k} (trusted {trusted}): {} of {} vertices on lines", l.on_lines, l.vertices);
+        assert!(
+            l.on_lines * 2 > l.vertices,
+            "level {k} (trusted {trusted}): {} of {} vertices on lines",
+            l.on_lines,
+            l.vertices
+        );
     }
 }

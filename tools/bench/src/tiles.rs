@@ -83,7 +83,9 @@ pub fn report() {
         return;
     };
     let Some(bin) = binary() else {
-        outln!("(skipped: target/release/octowrap is missing: cargo build --release -p octowrap-cli, or set OCTOWRAP_BIN)");
+        outln!(
+            "(skipped: target/release/octowrap is missing: cargo build --release -p octowrap-cli, or set OCTOWRAP_BIN)"
+        );
         return;
     };
     let work = std::env::temp_dir().join(format!("octowrap-bench-tiles-{}", std::process::id()));
@@ -113,7 +115,11 @@ pub fn report() {
     let tileset = tiles_dir.join("tileset.json");
     let glb = work.join("dragon.glb");
     let cases: [(&str, Vec<String>, &Path); 2] = [
-        ("export --levels all (one GLB)", vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()], &glb),
+        (
+            "export --levels all (one GLB)",
+            vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()],
+            &glb,
+        ),
         ("export -o tiles/tileset.json", vec!["export".into(), s(&mrq), "-o".into(), s(&tileset)], &tiles_dir),
     ];
     for (name, args, out) in &cases {
@@ -124,10 +130,16 @@ pub fn report() {
         };
         match best(&bin, &args, 3, clean) {
             Ok((secs, peak)) => {
-                let (files, bytes) = if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
+                let (files, bytes) =
+                    if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
                 outln!("| {name} | {secs:.3} | {files} | {bytes} | {:.1} MB |", peak as f64 / 1e6);
                 headline(format!("dragon, {name}: time"), format!("{secs:.3} s"), "–", None);
-                headline(format!("dragon, {name}: files, bytes, peak memory"), format!("{files}, {bytes} B, {:.1} MB", peak as f64 / 1e6), "–", None);
+                headline(
+                    format!("dragon, {name}: files, bytes, peak memory"),
+                    format!("{files}, {bytes} B, {:.1} MB", peak as f64 / 1e6),
+                    "–",
+                    None,
+                );
             }
             Err(e) => outln!("| {name} | failed: {} | | | |", e.trim()),
         }
@@ -148,8 +160,9 @@ fn decoded_bytes(h: &octowrap_mesh::Hierarchy) -> u64 {
         .iter()
         .map(|l| {
             let m = &l.mesh;
-            (m.vertices.positions.len() * 24 + m.faces.iter().map(|f| f.len() * 4 + 4).sum::<usize>() + m.faces.len() * 8)
-                as u64
+            (m.vertices.positions.len() * 24
+                + m.faces.iter().map(|f| f.len() * 4 + 4).sum::<usize>()
+                + m.faces.len() * 8) as u64
         })
         .sum()
 }
@@ -188,14 +201,23 @@ fn large_case(bin: &Path, dragon: &Path, work: &Path) {
     let tiles_dir = work.join("large-tiles");
     let glb = work.join("large.glb");
     let cases: [(&str, Vec<String>, &Path); 2] = [
-        ("export --levels all (one GLB)", vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()], &glb),
-        ("export -o tiles/tileset.json", vec!["export".into(), s(&mrq), "-o".into(), s(&tiles_dir.join("tileset.json"))], &tiles_dir),
+        (
+            "export --levels all (one GLB)",
+            vec!["export".into(), s(&mrq), "-o".into(), s(&glb), "--levels".into(), "all".into()],
+            &glb,
+        ),
+        (
+            "export -o tiles/tileset.json",
+            vec!["export".into(), s(&mrq), "-o".into(), s(&tiles_dir.join("tileset.json"))],
+            &tiles_dir,
+        ),
     ];
     for (name, args, out) in &cases {
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         match measured(bin, &args) {
             Ok((secs, peak)) => {
-                let (files, bytes) = if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
+                let (files, bytes) =
+                    if out.is_dir() { tree_size(out) } else { (1, std::fs::metadata(out).map_or(0, |m| m.len())) };
                 let ratio = peak as f64 / decoded as f64;
                 outln!("| {name} | {secs:.1} | {files} | {bytes} | {:.0} MB | {ratio:.2} |", peak as f64 / 1e6);
                 headline(format!("4.3 M case, {name}: time"), format!("{secs:.1} s"), "–", None);

@@ -55,7 +55,7 @@ impl InputArgs {
 
     /// The CRS `path` declares (LAS/LAZ/COPC or E57 read as `format`); `None` for standard
     /// input and for formats without one.
-    pub fn crs(&self, path: &Path, format: Format) -> anyhow::Result<Option<octowrap_io::Crs>> {
+    pub fn crs(path: &Path, format: Format) -> anyhow::Result<Option<octowrap_io::Crs>> {
         if path == Path::new("-") || !matches!(format, Format::Las | Format::E57) {
             return Ok(None);
         }

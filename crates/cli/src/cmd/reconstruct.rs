@@ -203,22 +203,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let is_mrq = args.output_format.to.is_none() && mrq::has_mrq_extension(&args.output);
     let to = if is_mrq { None } else { args.output_format.to.or_else(|| Format::from_path(&args.output)) };
     check_options(args, is_mrq, to)?;
-    let mut opts = ReconOptions::default();
-    opts.max_level = args.level.map_or(args.max_level, MaxLevel::Level);
-    opts.relax_passes = args.relax_passes;
-    opts.relax_from_level = args.relax_from_level;
-    opts.min_median_points = args.min_points;
-    opts.fit_passes = args.fit_passes;
-    opts.fit_max_faces = args.fit_max_faces;
-    opts.region_levels = args.region_levels;
-    opts.region_density = args.region_density;
-    opts.auto_min_gain = args.auto_min_gain;
-    opts.auto_faces_per_point = args.auto_faces_per_point;
-    opts.auto_max_faces = args.auto_max_faces;
-    opts.untangle_max_faces = args.untangle_max_faces;
-    if args.wrap_sparse {
-        opts.sparse = SparseMode::Wrap;
-    }
+    let mut opts = recon_options(args);
     if let (Some(plan), Some(tile)) = (&args.plan, args.tile) {
         let h = super::tile::reconstruct(&args.input, plan, tile, &opts)?;
         return write_tile(args, &h, is_mrq, to);
@@ -229,31 +214,9 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         opts.decoder_lines = Some(args.mrq.bits.map_or(DecoderGrid::Finest, DecoderGrid::Bits));
     }
     let (format, mesh) = args.input_args.read_detected(&args.input)?;
-    let crs = args.input_args.crs(&args.input, format)?;
+    let crs = InputArgs::crs(&args.input, format)?;
     let points = mesh.vertices.positions;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.map_or(0, usize::from)).build()?;
-    let bar = progress::bar(1, "partitioning");
-    let result = pool.install(|| {
-        octowrap_recon::reconstruct_with_progress(&points, &opts, &mut |p| {
-            let stage = match p.stage {
-                Stage::Partitioning => "partitioning",
-                Stage::Regular => "regular refinement",
-                Stage::Irregular => "irregular refinement",
-                Stage::Mapping => "vertex mapping",
-                Stage::Relaxation => "relaxation",
-            };
-            bar.set_length(u64::from(p.levels.max(1)) * 4);
-            let step = match p.stage {
-                Stage::Partitioning => 0,
-                Stage::Regular | Stage::Irregular => 1,
-                Stage::Mapping => 2,
-                Stage::Relaxation => 3,
-            };
-            bar.set_position(u64::from(p.level.saturating_sub(1)) * 4 + step);
-            bar.set_message(format!("level {}: {stage}", p.level));
-        })
-    });
-    bar.finish_and_clear();
+    let result = reconstruct_in_pool(&points, &opts, args.threads)?;
     let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
     if let Some(a) = &r.auto {
         say!("{}", auto_message(a, points.len(), &opts));
@@ -279,7 +242,71 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     if args.timings {
         print_timings(&r, on_lines, placement);
     }
-    let h = &r.hierarchy;
+    write_outputs(args, &r.hierarchy, &mrq_opts, is_mrq, to)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The reconstruction's options from the command line's.
+fn recon_options(args: &Args) -> ReconOptions {
+    let mut opts = ReconOptions::default();
+    opts.max_level = args.level.map_or(args.max_level, MaxLevel::Level);
+    opts.relax_passes = args.relax_passes;
+    opts.relax_from_level = args.relax_from_level;
+    opts.min_median_points = args.min_points;
+    opts.fit_passes = args.fit_passes;
+    opts.fit_max_faces = args.fit_max_faces;
+    opts.region_levels = args.region_levels;
+    opts.region_density = args.region_density;
+    opts.auto_min_gain = args.auto_min_gain;
+    opts.auto_faces_per_point = args.auto_faces_per_point;
+    opts.auto_max_faces = args.auto_max_faces;
+    opts.untangle_max_faces = args.untangle_max_faces;
+    if args.wrap_sparse {
+        opts.sparse = SparseMode::Wrap;
+    }
+    opts
+}
+
+/// Reconstructs `points` on `threads` threads (all cores when `None`), with a progress bar.
+fn reconstruct_in_pool(
+    points: &[octowrap_geom::DVec3],
+    opts: &ReconOptions,
+    threads: Option<u16>,
+) -> anyhow::Result<Result<octowrap_recon::Reconstruction, octowrap_recon::Error>> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.map_or(0, usize::from)).build()?;
+    let bar = progress::bar(1, "partitioning");
+    let result = pool.install(|| {
+        octowrap_recon::reconstruct_with_progress(points, opts, &mut |p| {
+            let stage = match p.stage {
+                Stage::Partitioning => "partitioning",
+                Stage::Regular => "regular refinement",
+                Stage::Irregular => "irregular refinement",
+                Stage::Mapping => "vertex mapping",
+                Stage::Relaxation => "relaxation",
+            };
+            bar.set_length(u64::from(p.levels.max(1)) * 4);
+            let step = match p.stage {
+                Stage::Partitioning => 0,
+                Stage::Regular | Stage::Irregular => 1,
+                Stage::Mapping => 2,
+                Stage::Relaxation => 3,
+            };
+            bar.set_position(u64::from(p.level.saturating_sub(1)) * 4 + step);
+            bar.set_message(format!("level {}: {stage}", p.level));
+        })
+    });
+    bar.finish_and_clear();
+    Ok(result)
+}
+
+/// Writes the hierarchy: every level with `--all-levels`, then the MRQ file or the chosen level.
+fn write_outputs(
+    args: &Args,
+    h: &octowrap_mesh::Hierarchy,
+    mrq_opts: &octowrap_format::EncodeOptions,
+    is_mrq: bool,
+    to: Option<Format>,
+) -> anyhow::Result<()> {
     if let Some(dir) = &args.all_levels {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (k, level) in h.levels.iter().enumerate() {
@@ -290,7 +317,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         }
     }
     if is_mrq {
-        mrq::write(&args.output, h, &mrq_opts, args.clobber)?;
+        mrq::write(&args.output, h, mrq_opts, args.clobber)?;
     } else {
         let k = args.write_level.map_or(h.levels.len() - 1, |k| k as usize);
         let Some(level) = h.levels.get(k) else {
@@ -302,7 +329,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         w.no_clobber = args.clobber.no_clobber;
         octowrap_io::write_path(&args.output, &level.mesh, &w)?;
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 /// Writes a tile's hierarchy (see `tile::reconstruct`): positions as reconstructed.

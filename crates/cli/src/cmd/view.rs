@@ -3,13 +3,14 @@
 //! The server is a small HTTP/1.1 server on the standard library, written here rather than taken
 //! from a crate: the crates that serve byte ranges (tower-http's `ServeDir`, actix-files, warp)
 //! bring an async runtime and about a hundred crates for one local file, and the small blocking
-//! servers (tiny_http) leave `Range` to the caller anyway. It answers `GET` and `HEAD` for the
+//! servers (`tiny_http`) leave `Range` to the caller anyway. It answers `GET` and `HEAD` for the
 //! embedded viewer files and for the MRQ file, the latter with single byte ranges (RFC 9110
 //! §14: `bytes=a-b`, `bytes=a-`, `bytes=-n`; 206 with `Content-Range`, 416 past the end; a
 //! malformed or multi-range header gets the whole file, as the RFC allows). It listens on
 //! 127.0.0.1 only, reads request heads of at most 16 KiB with a timeout, and serves at most
 //! [`MAX_CONNECTIONS`] connections at once, one thread each.
 
+use std::fmt::Write as _;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -240,7 +241,9 @@ fn handle(w: &mut TcpStream, site: &Site, req: &Request) -> std::io::Result<bool
         respond(w, "200 OK", a.mime, &[], a.bytes, head)?;
         return Ok(true);
     }
-    let body = if req.path.ends_with(".wasm") || req.path.starts_with("/pkg/") || req.path.starts_with("/node_modules/")
+    let body = if Path::new(&req.path).extension().is_some_and(|e| e == "wasm")
+        || req.path.starts_with("/pkg/")
+        || req.path.starts_with("/node_modules/")
     {
         format!(
             "{} is not in this octowrap: it was built without the viewer's files ({}); run tools/viewer/build-wasm.sh, then build octowrap again\n",
@@ -268,7 +271,7 @@ fn respond(
         body.len()
     );
     for (name, value) in extra {
-        out.push_str(&format!("{name}: {value}\r\n"));
+        let _ = write!(out, "{name}: {value}\r\n");
     }
     out.push_str("\r\n");
     w.write_all(out.as_bytes())?;
@@ -336,7 +339,7 @@ fn serve_file(w: &mut TcpStream, path: &Path, range: Option<&str>, head_only: bo
         end - start
     );
     if status.starts_with("206") {
-        out.push_str(&format!("Content-Range: bytes {start}-{}/{len}\r\n", end - 1));
+        let _ = write!(out, "Content-Range: bytes {start}-{}/{len}\r\n", end - 1);
     }
     out.push_str("\r\n");
     w.write_all(out.as_bytes())?;
@@ -359,7 +362,7 @@ fn percent_encode(s: &str) -> String {
         if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
             out.push(b as char);
         } else {
-            out.push_str(&format!("%{b:02X}"));
+            let _ = write!(out, "%{b:02X}");
         }
     }
     out
