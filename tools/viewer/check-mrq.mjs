@@ -91,6 +91,8 @@ try {
     const requests = [];
     page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
     page.on('pageerror', (e) => errors.push(String(e)));
+    // Chromium's console line for a failed load names no URL: the responses do.
+    page.on('response', (r) => { if (r.status() >= 400) errors.push(`${r.status()} ${r.url()}`); });
     context.on('request', (r) => { if (r.headers().range) requests.push(r.headers().range); });
     await page.goto(url);
     const t0 = Date.now();
@@ -119,7 +121,9 @@ try {
     await page.screenshot({ path: path.join(args.out, 'mrq-close.png') });
     const { drc, vertices } = await dracoOfFinest(args.mrq);
     await page.addScriptTag({ path: path.join(root, 'node_modules/draco3d/draco_decoder_nodejs.js') });
-    result.bench = await page.evaluate(async (d) => window.octowrap.bench(new Uint8Array(d)), Array.from(drc));
+    const dracoWasm = await readFile(path.join(root, 'node_modules/draco3d/draco_decoder.wasm'));
+    result.bench = await page.evaluate(async ([d, w]) => window.octowrap.bench(new Uint8Array(d), new Uint8Array(w).buffer),
+      [Array.from(drc), Array.from(dracoWasm)]);
     result.bench.drcBytes = drc.length;
     result.bench.nodeVertices = vertices;
   }

@@ -70,11 +70,12 @@ async function stream(url, budget, stats) {
         if (m === null) throw failure;
       }
       shown = k;
+      // The counts first: taking the arrays leaves the decoded level empty.
+      const counts = { vertices: m.vertices(), faces: m.faces(), triangles: m.triangleCount() };
       const positions = m.takePositions();
       const indices = m.takeTriangles();
       const msg = {
-        type: 'level', level: k, vertices: m.vertices(), faces: m.faces(), triangles: m.triangleCount(),
-        positions, indices, decodeMs: performance.now() - t0, stats: { ...stats },
+        type: 'level', level: k, ...counts, positions, indices, decodeMs: performance.now() - t0, stats: { ...stats },
       };
       m.free();
       self.postMessage(msg, [positions.buffer, indices.buffer]);

@@ -209,7 +209,7 @@ state.crackCheck = async () => {
 // Decoding speed on this page's main thread: the WebAssembly stream decoding the finest level
 // from the whole file (the coarser levels included, as the format requires), against the draco3d
 // decoder on `drc` (the same level, Draco-coded), each to typed arrays; the median of `runs`.
-state.bench = async (drcBytes, runs = 9) => {
+state.bench = async (drcBytes, dracoWasm, runs = 9) => {
   const bytes = new Uint8Array(await (await fetch(src, { cache: 'no-store' })).arrayBuffer());
   const median = (xs) => xs.slice().sort((a, b) => a - b)[xs.length >> 1];
   let vertices = 0;
@@ -220,7 +220,7 @@ state.bench = async (drcBytes, runs = 9) => {
     vertices = (await finestOf(bytes)).vertices;
     wasmMs.push(performance.now() - t0);
   }
-  const draco = await dracoDecoder();
+  const draco = await dracoDecoder(dracoWasm);
   const dracoMs = [];
   let dracoVertices = 0;
   const decodeDraco = () => {
@@ -258,20 +258,25 @@ state.bench = async (drcBytes, runs = 9) => {
   };
 };
 
-// draco3d's decoder (node_modules/draco3d): its Emscripten module run as a classic script.
+// draco3d's decoder: its Emscripten module run as a classic script. A page that has it already
+// (the check script adds node_modules/draco3d/draco_decoder_nodejs.js and passes the
+// draco_decoder.wasm bytes) uses those; otherwise both come from ./node_modules/draco3d/ beside
+// the page (a static server over tools/viewer; `octowrap view` embeds three.js alone).
 let dracoModule = null;
-async function dracoDecoder() {
+async function dracoDecoder(wasmBinary) {
   if (!dracoModule) {
     const base = new URL('./node_modules/draco3d/', import.meta.url);
-    await new Promise((ok, bad) => {
-      const s = document.createElement('script');
-      s.src = new URL('draco_decoder_nodejs.js', base).href;
-      s.onload = ok;
-      s.onerror = () => bad(new Error('cannot load draco3d'));
-      document.head.appendChild(s);
-    });
-    const wasmBinary = await (await fetch(new URL('draco_decoder.wasm', base))).arrayBuffer();
-    dracoModule = await window.DracoDecoderModule({ wasmBinary });
+    if (!window.DracoDecoderModule) {
+      await new Promise((ok, bad) => {
+        const s = document.createElement('script');
+        s.src = new URL('draco_decoder_nodejs.js', base).href;
+        s.onload = ok;
+        s.onerror = () => bad(new Error(`cannot load draco3d from ${s.src}`));
+        document.head.appendChild(s);
+      });
+    }
+    const binary = wasmBinary ?? await (await fetch(new URL('draco_decoder.wasm', base))).arrayBuffer();
+    dracoModule = await window.DracoDecoderModule({ wasmBinary: binary });
   }
   return dracoModule;
 }

@@ -241,7 +241,10 @@ fn the_viewer_streams_a_reconstructed_dragon() {
 
     let bench = &r["bench"];
     assert_eq!(bench["vertices"].as_u64(), Some(u64::from(last.vertex_count)));
-    assert!(bench["speedup"].as_f64().unwrap() > 1.0, "WebAssembly MRQ against draco3d: {bench}");
+    // Both decoders ran on the same level; how fast each is belongs to the bench (`octowrap-bench
+    // browser`), not to a pass/fail test on a shared machine.
+    assert_eq!(bench["dracoVertices"], bench["vertices"], "draco3d decoded the same level: {bench}");
+    assert!(bench["wasmMVps"].as_f64().is_some_and(|x| x > 0.0), "{bench}");
 
     let bad = &r["bad"];
     let message =

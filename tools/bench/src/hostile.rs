@@ -347,13 +347,11 @@ f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
 pub fn report() {
     outln!("## Hostile input (issue 17)\n");
-    let bin = std::env::var_os("OCTOWRAP_BIN")
-        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/release/octowrap"), PathBuf::from);
-    if !bin.is_file() {
-        outln!("no binary at {}: `cargo build --release -p octowrap-cli` first (or set OCTOWRAP_BIN)\n", bin.display());
+    let Some(bin) = crate::util::octowrap_binary() else {
+        outln!("no octowrap binary: `cargo build --release -p octowrap-cli` first (or set OCTOWRAP_BIN)\n");
         headline("hostile input", "not measured: no octowrap binary", "every row wanted", None);
         return;
-    }
+    };
     let dir = tempfile::Builder::new().prefix("octowrap-hostile-").tempdir().expect("a temporary folder");
     let mut ctx = Ctx { bin, dir, rows: Vec::new(), class: "" };
     let started = Instant::now();

@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, fuzzing, the Python package, hostile input); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, the browser viewer, fuzzing, the Python package, hostile input); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -19,6 +19,7 @@ macro_rules! outln {
 }
 
 mod accuracy;
+mod browser;
 mod decimate;
 mod format;
 mod fuzz;
@@ -72,6 +73,7 @@ fn main() -> std::process::ExitCode {
         ("validate", validate::report),
         ("decimate", decimate::report),
         ("tiles", tiles::report),
+        ("browser", browser::report),
         ("fuzz", fuzz::report),
         ("python", python::report),
         ("hostile", hostile_report),

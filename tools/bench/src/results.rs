@@ -22,6 +22,7 @@ pub const AREAS: &[(&str, &str)] = &[
     ("validate", "Validator"),
     ("decimate", "Decimation"),
     ("tiles", "3D Tiles export"),
+    ("browser", "Browser: the MRQ viewer page and its WebAssembly decoder"),
     ("fuzz", "Fuzzing: the last tools/fuzz campaign"),
     ("python", "Python package: `import octowrap` against the library and the command line"),
     ("hostile", "Hostile input: issue 17's table re-run"),

@@ -8,16 +8,10 @@
 //! small Python wrapper around the run (`resource.getrusage(RUSAGE_CHILDREN)`), so it is the
 //! export's own peak, not the bench's.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-use crate::util::{headline, shared_data};
-
-fn binary() -> Option<PathBuf> {
-    let p = std::env::var_os("OCTOWRAP_BIN")
-        .map_or_else(|| octowrap_testdata::workspace_root().join("target/release/octowrap"), PathBuf::from);
-    p.is_file().then_some(p)
-}
+use crate::util::{headline, octowrap_binary as binary, shared_data};
 
 /// Runs `bin args`; its wall seconds and peak RSS in bytes, or why it failed.
 fn measured(bin: &Path, args: &[&str]) -> Result<(f64, u64), String> {

@@ -17,6 +17,15 @@ pub fn shared_data() -> Option<PathBuf> {
     dir.is_dir().then_some(dir)
 }
 
+/// The `octowrap` binary the areas run: `OCTOWRAP_BIN`, else the workspace's
+/// `target/release/octowrap` (`cargo build --release -p octowrap-cli` first); `None` when it is
+/// not there.
+pub fn octowrap_binary() -> Option<std::path::PathBuf> {
+    let p = std::env::var_os("OCTOWRAP_BIN")
+        .map_or_else(|| octowrap_testdata::workspace_root().join("target/release/octowrap"), std::path::PathBuf::from);
+    p.is_file().then_some(p)
+}
+
 /// Best wall time in seconds of `runs` runs of `f` (the result of the last run is returned).
 pub fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     let mut best = f64::INFINITY;
