@@ -32,9 +32,8 @@
 //! # zstd in WebAssembly
 //! The format's own decoder runs unchanged: the `zstd` crate's C library (zstd-sys), compiled for
 //! `wasm32-unknown-unknown` by clang through zstd-sys's wasm shim (`CC_wasm32_unknown_unknown=clang`,
-//! `AR_wasm32_unknown_unknown=llvm-ar`; `tools/viewer/build-wasm.sh`). The pure-Rust `ruzstd`
-//! decoder was measured against it on the levels of a reconstructed dragon, in Node's V8 (the
-//! engine of Chromium):
+//! `AR_wasm32_unknown_unknown=llvm-ar`; `tools/viewer/build-wasm.sh`), rather than the pure-Rust
+//! `ruzstd` decoder.
 #![doc = include_str!("../ZSTD.md")]
 
 pub mod stream;
