@@ -1,4 +1,4 @@
-//! The browser area (issue 20): the MRQ viewer page (`tools/viewer/mrq.html`, served by
+//! The browser area: the MRQ viewer page (`tools/viewer/mrq.html`, served by
 //! `octowrap view`) in headless Chromium on a reconstructed dragon, through
 //! `tools/viewer/check-mrq.mjs`: the first frame (range requests, bytes, time), the whole
 //! stream, and the WebAssembly decoder against the `draco3d` decoder on the same finest level in
@@ -75,7 +75,7 @@ fn missing(viewer: &Path) -> Option<String> {
 
 /// Runs the area.
 pub fn report() {
-    outln!("## Browser: the MRQ viewer page and its WebAssembly decoder (issue 20)");
+    outln!("## Browser: the MRQ viewer page and its WebAssembly decoder");
     outln!();
     let viewer = octowrap_testdata::workspace_root().join("tools/viewer");
     let Some(bin) = octowrap_binary() else {
