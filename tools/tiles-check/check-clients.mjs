@@ -19,12 +19,12 @@
 // (nothing else is fetched: no Cesium ion, no imagery, no terrain). Chromium is /usr/bin/chromium
 // unless given, with a fresh profile. Exit 0 with the JSON when every page loaded and ran, 1 when a
 // page reported an error (the JSON says which), 2 when nothing could run.
-import http from 'node:http';
 import { mkdir, mkdtemp, readFile, rm, writeFile } from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
+import { CHROMIUM_ARGS, inside, serveFiles } from '../viewer/browser.mjs';
 
 const args = process.argv.slice(2);
 const positional = [];
@@ -46,28 +46,8 @@ if (!tileset || !outDir) {
 }
 const root = path.dirname(fileURLToPath(import.meta.url));
 const dataDir = path.resolve(path.dirname(tileset));
-const types = {
-  '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json',
-  '.glb': 'model/gltf-binary', '.wasm': 'application/wasm', '.css': 'text/css', '.png': 'image/png',
-  '.subtree': 'application/octet-stream',
-};
-
-const server = http.createServer(async (req, res) => {
-  try {
-    const url = new URL(req.url, 'http://localhost');
-    const rel = path.normalize(decodeURIComponent(url.pathname));
-    const [base, sub] = rel.startsWith('/data/') ? [dataDir, rel.slice('/data/'.length)] : [root, rel.slice(1)];
-    const file = path.join(base, sub);
-    if (!file.startsWith(base + path.sep)) throw new Error('outside');
-    const body = await readFile(file);
-    res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
-    res.end(body);
-  } catch {
-    res.writeHead(404);
-    res.end();
-  }
-});
-await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
+// The pages and their modules from this folder; the tileset's folder under /data/.
+const server = await serveFiles((p) => (p.startsWith('/data/') ? inside(dataDir, p.slice('/data/'.length)) : inside(root, p.slice(1))));
 const port = server.address().port;
 const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-tiles-chromium-'));
 await mkdir(outDir, { recursive: true });
@@ -79,8 +59,7 @@ try {
     executablePath: opts.chromium,
     headless: true,
     viewport: { width: 600, height: 600 },
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-      '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+    args: CHROMIUM_ARGS,
   });
   for (const client of opts.clients.split(',')) {
     const started = Date.now();

@@ -17,6 +17,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
 import draco3d from 'draco3d';
+import { CHROMIUM_ARGS } from './browser.mjs';
 
 const args = {};
 for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
@@ -81,8 +82,7 @@ try {
     executablePath: exe,
     headless: true,
     viewport: { width: 800, height: 600 },
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-      '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+    args: CHROMIUM_ARGS,
   });
   // Opens `url`, waits until the stream ends (done or error), returns the page's state.
   const open = async (url, name) => {

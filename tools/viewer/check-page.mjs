@@ -8,12 +8,12 @@
 // The page and the model are served from 127.0.0.1 on a free port for the run only. Chromium is
 // /usr/bin/chromium unless given, with a fresh profile. Exit 0 with the JSON when the page loaded
 // the model, 1 when the page reported an error (JSON with "error"), 2 when nothing could run.
-import http from 'node:http';
 import { mkdtemp, readFile, rm } from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
+import { CHROMIUM_ARGS, inside, serveFiles } from './browser.mjs';
 
 const [model, shot, exe = '/usr/bin/chromium'] = process.argv.slice(2);
 if (!model || !shot) {
@@ -21,22 +21,8 @@ if (!model || !shot) {
   process.exit(2);
 }
 const root = path.dirname(fileURLToPath(import.meta.url));
-const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.glb': 'model/gltf-binary', '.wasm': 'application/wasm' };
-
-const server = http.createServer(async (req, res) => {
-  try {
-    const url = new URL(req.url, 'http://localhost');
-    const file = url.pathname === '/model.glb' ? path.resolve(model) : path.join(root, path.normalize(decodeURIComponent(url.pathname)));
-    if (url.pathname !== '/model.glb' && !file.startsWith(root + path.sep)) throw new Error('outside');
-    const body = await readFile(file);
-    res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
-    res.end(body);
-  } catch {
-    res.writeHead(404);
-    res.end();
-  }
-});
-await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
+// The page and its modules from this folder; the model at /model.glb.
+const server = await serveFiles((p) => (p === '/model.glb' ? path.resolve(model) : inside(root, p.slice(1))));
 const port = server.address().port;
 const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-chromium-'));
 let context;
@@ -46,8 +32,7 @@ try {
     executablePath: exe,
     headless: true,
     viewport: { width: 800, height: 600 },
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-      '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+    args: CHROMIUM_ARGS,
   });
   const page = context.pages()[0] || (await context.newPage());
   const logs = [];
