@@ -19,12 +19,11 @@
 // (nothing else is fetched: no Cesium ion, no imagery, no terrain). Chromium is /usr/bin/chromium
 // unless given, with a fresh profile. Exit 0 with the JSON when every page loaded and ran, 1 when a
 // page reported an error (the JSON says which), 2 when nothing could run.
-import { mkdir, mkdtemp, readFile, rm, writeFile } from 'node:fs/promises';
-import os from 'node:os';
+import { mkdir, writeFile } from 'node:fs/promises';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
-import { CHROMIUM_ARGS, inside, serveFiles } from '../viewer/browser.mjs';
+import { inChromium, inside, serveFiles } from '../viewer/browser.mjs';
 
 const args = process.argv.slice(2);
 const positional = [];
@@ -49,18 +48,11 @@ const dataDir = path.resolve(path.dirname(tileset));
 // The pages and their modules from this folder; the tileset's folder under /data/.
 const server = await serveFiles((p) => (p.startsWith('/data/') ? inside(dataDir, p.slice('/data/'.length)) : inside(root, p.slice(1))));
 const port = server.address().port;
-const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-tiles-chromium-'));
 await mkdir(outDir, { recursive: true });
 const out = {};
 let code = 0;
-let context;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: opts.chromium,
-    headless: true,
-    viewport: { width: 600, height: 600 },
-    args: CHROMIUM_ARGS,
-  });
+const launch = { name: 'check-clients.mjs', executablePath: opts.chromium, viewport: { width: 600, height: 600 } };
+code = await inChromium(chromium, launch, async (context) => {
   for (const client of opts.clients.split(',')) {
     const started = Date.now();
     const page = await context.newPage();
@@ -108,12 +100,7 @@ try {
     await page.close();
   }
   process.stdout.write(JSON.stringify(out) + '\n');
-} catch (err) {
-  console.error(`check-clients.mjs: ${err && err.message ? err.message : err}`);
-  code = 2;
-} finally {
-  if (context) await context.close();
-  server.close();
-  await rm(profile, { recursive: true, force: true });
-}
+  return code;
+});
+server.close();
 process.exit(code);

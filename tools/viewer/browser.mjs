@@ -1,7 +1,9 @@
 // What the headless-Chromium checks share (check-page.mjs, check-mrq.mjs and
-// tools/tiles-check/check-clients.mjs): a static file server on 127.0.0.1 and Chromium's flags.
+// tools/tiles-check/check-clients.mjs): a static file server on 127.0.0.1, Chromium's flags and
+// a run of headless Chromium in a fresh profile.
 import http from 'node:http';
-import { readFile } from 'node:fs/promises';
+import { mkdtemp, readFile, rm } from 'node:fs/promises';
+import os from 'node:os';
 import path from 'node:path';
 
 /// Content types by file extension; anything else is application/octet-stream.
@@ -43,4 +45,23 @@ export async function serveFiles(resolve) {
   });
   await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
   return server;
+}
+
+/// Runs `body(context)` in headless Chromium (playwright-core's `chromium`, from the caller's own
+/// node_modules) with a fresh profile, removed afterwards; `launch` adds to the launch options
+/// (`executablePath`, `viewport`), `name` names the script in an error. Resolves to the body's
+/// exit code (0 when it returns none), or 2 when it throws (the error printed).
+export async function inChromium(chromium, { name, ...launch }, body) {
+  const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-chromium-'));
+  let context;
+  try {
+    context = await chromium.launchPersistentContext(profile, { headless: true, args: CHROMIUM_ARGS, ...launch });
+    return (await body(context)) ?? 0;
+  } catch (err) {
+    console.error(`${name}: ${err && err.message ? err.message : err}`);
+    return 2;
+  } finally {
+    if (context) await context.close();
+    await rm(profile, { recursive: true, force: true });
+  }
 }

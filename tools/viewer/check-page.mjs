@@ -8,12 +8,10 @@
 // The page and the model are served from 127.0.0.1 on a free port for the run only. Chromium is
 // /usr/bin/chromium unless given, with a fresh profile. Exit 0 with the JSON when the page loaded
 // the model, 1 when the page reported an error (JSON with "error"), 2 when nothing could run.
-import { mkdtemp, readFile, rm } from 'node:fs/promises';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
-import { CHROMIUM_ARGS, inside, serveFiles } from './browser.mjs';
+import { inChromium, inside, serveFiles } from './browser.mjs';
 
 const [model, shot, exe = '/usr/bin/chromium'] = process.argv.slice(2);
 if (!model || !shot) {
@@ -24,16 +22,9 @@ const root = path.dirname(fileURLToPath(import.meta.url));
 // The page and its modules from this folder; the model at /model.glb.
 const server = await serveFiles((p) => (p === '/model.glb' ? path.resolve(model) : inside(root, p.slice(1))));
 const port = server.address().port;
-const profile = await mkdtemp(path.join(os.tmpdir(), 'octowrap-chromium-'));
-let context;
 let code = 0;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: exe,
-    headless: true,
-    viewport: { width: 800, height: 600 },
-    args: CHROMIUM_ARGS,
-  });
+const launch = { name: 'check-page.mjs', executablePath: exe, viewport: { width: 800, height: 600 } };
+code = await inChromium(chromium, launch, async (context) => {
   const page = context.pages()[0] || (await context.newPage());
   const logs = [];
   page.on('console', (m) => logs.push(m.text()));
@@ -69,12 +60,7 @@ try {
     result.logs = logs;
     process.stdout.write(JSON.stringify(result) + '\n');
   }
-} catch (err) {
-  console.error(`check-page.mjs: ${err && err.message ? err.message : err}`);
-  code = 2;
-} finally {
-  if (context) await context.close();
-  server.close();
-  await rm(profile, { recursive: true, force: true });
-}
+  return code;
+});
+server.close();
 process.exit(code);
