@@ -5,8 +5,7 @@
 //
 //   node tools/viewer/bench-decode.mjs FILE.mrq [RUNS]
 import { readFile } from 'node:fs/promises';
-import path from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { decodeFinest, loadDecoder } from './mrq-node.mjs';
 
 const [file, runsArg] = process.argv.slice(2);
 if (!file) {
@@ -14,23 +13,12 @@ if (!file) {
   process.exit(2);
 }
 const runs = Number(runsArg ?? 15);
-const root = path.dirname(fileURLToPath(import.meta.url));
-const wasm = await import(path.join(root, 'pkg/octowrap_wasm.js'));
-wasm.initSync({ module: await readFile(path.join(root, 'pkg/octowrap_wasm_bg.wasm')) });
+const wasm = await loadDecoder();
 const bytes = new Uint8Array(await readFile(file));
-
-function finest() {
-  const s = new wasm.MrqStream(Number.MAX_SAFE_INTEGER);
-  s.setFileLength(bytes.length);
-  s.push(0, bytes);
-  const m = s.decode(s.levelCount() - 1);
-  const counts = { vertices: m.vertices(), triangles: m.triangleCount() };
-  m.takePositions();
-  m.takeTriangles();
-  m.free();
-  s.free();
-  return counts;
-}
+const finest = () => {
+  const { vertices, triangles } = decodeFinest(wasm, bytes);
+  return { vertices, triangles };
+};
 
 let counts = finest(); // warm-up: compile and first-touch memory
 const ms = [];

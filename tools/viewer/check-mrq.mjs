@@ -18,6 +18,7 @@ import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
 import draco3d from 'draco3d';
 import { CHROMIUM_ARGS } from './browser.mjs';
+import { decodeFinest, loadDecoder } from './mrq-node.mjs';
 
 const args = {};
 for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
@@ -31,15 +32,7 @@ const exe = args.chromium || '/usr/bin/chromium';
 // The finest level decoded by the same WebAssembly module in Node, then Draco-coded (draco3d's
 // encoder: 14-bit positions, the default speed), for the decoding comparison in the page.
 async function dracoOfFinest(file) {
-  const wasm = await import(path.join(root, 'pkg/octowrap_wasm.js'));
-  wasm.initSync({ module: await readFile(path.join(root, 'pkg/octowrap_wasm_bg.wasm')) });
-  const bytes = new Uint8Array(await readFile(file));
-  const s = new wasm.MrqStream(Number.MAX_SAFE_INTEGER);
-  s.setFileLength(bytes.length);
-  s.push(0, bytes);
-  const m = s.decode(s.levelCount() - 1);
-  const positions = m.takePositions();
-  const indices = m.takeTriangles();
+  const { positions, indices } = decodeFinest(await loadDecoder(), new Uint8Array(await readFile(file)));
   const enc = await draco3d.createEncoderModule({});
   const mesh = new enc.Mesh();
   const builder = new enc.MeshBuilder();

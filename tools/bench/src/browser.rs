@@ -93,9 +93,8 @@ pub fn report() {
         outln!("SKIPPED: stanford-dragon/dragon_vrip.ply.gz is not in the data folder (set OCTOWRAP_DATA)");
         return;
     };
-    match measure(&bin, &viewer, &points) {
-        Ok(()) => {}
-        Err(why) => outln!("SKIPPED: {why}"),
+    if let Err(why) = measure(&bin, &viewer, &points) {
+        outln!("SKIPPED: {why}");
     }
 }
 

@@ -11,7 +11,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use crate::util::{headline, octowrap_binary as binary, shared_data};
+use crate::util::{headline, octowrap_binary, shared_data};
 
 /// Runs `bin args`; its wall seconds and peak RSS in bytes, or why it failed.
 fn measured(bin: &Path, args: &[&str]) -> Result<(f64, u64), String> {
@@ -76,7 +76,7 @@ pub fn report() {
         outln!("(skipped: ../shared/data is absent)");
         return;
     };
-    let Some(bin) = binary() else {
+    let Some(bin) = octowrap_binary() else {
         outln!(
             "(skipped: target/release/octowrap is missing: cargo build --release -p octowrap-cli, or set OCTOWRAP_BIN)"
         );

@@ -216,8 +216,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let (format, mesh) = args.input_args.read_detected(&args.input)?;
     let crs = InputArgs::crs(&args.input, format)?;
     let points = mesh.vertices.positions;
-    let result = reconstruct_in_pool(&points, &opts, args.threads)?;
-    let mut r = result.with_context(|| format!("reconstructing {}", args.input.display()))?;
+    let mut r = reconstruct_in_pool(&points, &opts, args.threads)
+        .with_context(|| format!("reconstructing {}", args.input.display()))?;
     if let Some(a) = &r.auto {
         say!("{}", auto_message(a, points.len(), &opts));
     }
@@ -272,7 +272,7 @@ fn reconstruct_in_pool(
     points: &[octowrap_geom::DVec3],
     opts: &ReconOptions,
     threads: Option<u16>,
-) -> anyhow::Result<Result<octowrap_recon::Reconstruction, octowrap_recon::Error>> {
+) -> anyhow::Result<octowrap_recon::Reconstruction> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.map_or(0, usize::from)).build()?;
     let bar = progress::bar(1, "partitioning");
     let result = pool.install(|| {
@@ -296,7 +296,7 @@ fn reconstruct_in_pool(
         })
     });
     bar.finish_and_clear();
-    Ok(result)
+    Ok(result?)
 }
 
 /// Writes the hierarchy: every level with `--all-levels`, then the MRQ file or the chosen level.
