@@ -16,6 +16,12 @@ pub const MAGIC: [u8; 8] = [0x89, b'M', b'R', b'Q', 0x0D, 0x0A, 0x1A, 0x0A];
 pub const HEADER_SIZE: usize = 112;
 /// Size of one level-table entry in bytes.
 pub const ENTRY_SIZE: usize = 48;
+/// Size of one chunk-index entry in bytes (version 5, spec §11.2).
+pub const CHUNK_ENTRY_SIZE: usize = 88;
+/// The first version whose levels are stored as chunks (spec §11).
+pub const CHUNKED_VERSION: u16 = 5;
+/// `parent` of a chunk that refines no chunk (spec §11.2).
+pub const NO_CHUNK: u32 = u32::MAX;
 
 /// Header flag: the file records the octree cube (`cube_min`, `cube_max` are meaningful).
 pub const FLAG_CUBE: u32 = 1;
@@ -51,8 +57,8 @@ pub struct FileHeader {
     pub cube_max: [f64; 3],
     /// Size in bytes of the metadata block.
     pub metadata_size: u32,
-    /// Reserved, must be zero.
-    pub reserved: u32,
+    /// Version 5: the number of chunk-index entries (spec §11.2); reserved (zero) before.
+    pub chunk_count: u32,
 }
 
 /// One level-table entry (spec §3.2).
@@ -72,8 +78,44 @@ pub struct LevelEntry {
     pub face_count: u32,
     /// Face corners of the level (sum of face sizes).
     pub corner_count: u32,
+    /// Version 5: the depth of the level's chunk cells (spec §11.1); reserved (zero) before.
+    pub cell_depth: u32,
+}
+
+/// One chunk-index entry (spec §11.2, version 5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChunkEntry {
+    /// File offset of the chunk's stored bytes.
+    pub offset: u64,
+    /// XXH3-64 (seed 0) of the stored bytes.
+    pub checksum: u64,
+    /// Size of the stored (zstd) bytes.
+    pub stored_size: u32,
+    /// Size of the decompressed level block.
+    pub raw_size: u32,
+    /// The chunk of the level above that this one refines, or [`NO_CHUNK`].
+    pub parent: u32,
+    /// The level.
+    pub level: u16,
     /// Reserved, must be zero.
-    pub reserved: u32,
+    pub reserved: u16,
+    /// The chunk's cell at its level's `cell_depth`.
+    pub cell: [u32; 3],
+    /// Vertices of the chunk.
+    pub vertex_count: u32,
+    /// Faces of the chunk.
+    pub face_count: u32,
+    /// Corners of the chunk.
+    pub corner_count: u32,
+    /// Smallest corner of the box around the chunk's vertices (rounded down to binary32).
+    pub bbox_min: [f32; 3],
+    /// Largest corner (rounded up).
+    pub bbox_max: [f32; 3],
+    /// Geometric error in model units: the chunk surface's certified Hausdorff distance to the
+    /// finest level over the chunk's cell; negative when the writer did not measure it.
+    pub geometric_error: f32,
+    /// Reserved, must be zero.
+    pub reserved2: u32,
 }
 
 /// The metadata block (spec §3.3).
@@ -103,7 +145,7 @@ pub fn to_bytes<T: Serialize>(v: &T) -> Vec<u8> {
     bincode::serde::encode_to_vec(v, config()).expect("plain structs always serialize")
 }
 
-fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, DecodeError> {
+pub(crate) fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, DecodeError> {
     match bincode::serde::decode_from_slice::<T, _>(b, config()) {
         Ok((v, used)) if used == b.len() => Ok(v),
         Ok((_, used)) => Err(DecodeError::Invalid {
@@ -123,14 +165,20 @@ pub struct Preamble {
     pub header: FileHeader,
     /// One entry per level.
     pub levels: Vec<LevelEntry>,
+    /// Version 5: the chunk index (empty before).
+    pub chunks: Vec<ChunkEntry>,
     /// The metadata block.
     pub metadata: Metadata,
 }
 
 impl Preamble {
-    /// Size in bytes of the whole preamble (header, table, metadata, checksum).
+    /// Size in bytes of the whole preamble (header, table, chunk index, metadata, checksum).
     pub fn size(&self) -> u64 {
-        HEADER_SIZE as u64 + ENTRY_SIZE as u64 * self.levels.len() as u64 + u64::from(self.header.metadata_size) + 8
+        HEADER_SIZE as u64
+            + ENTRY_SIZE as u64 * self.levels.len() as u64
+            + CHUNK_ENTRY_SIZE as u64 * self.chunks.len() as u64
+            + u64::from(self.header.metadata_size)
+            + 8
     }
 
     /// The preamble's bytes, checksum included. `header.metadata_size` must already be right.
@@ -138,6 +186,9 @@ impl Preamble {
         let mut out = to_bytes(&self.header);
         for e in &self.levels {
             out.extend(to_bytes(e));
+        }
+        for c in &self.chunks {
+            out.extend(to_bytes(c));
         }
         out.extend(to_bytes(&self.metadata));
         let sum = xxh3_64(&out);
@@ -179,8 +230,17 @@ pub fn parse_header(b: &[u8; HEADER_SIZE], limits: &crate::Limits) -> Result<Fil
             limit: limits.max_levels.into(),
         });
     }
-    if h.reserved != 0 {
+    if h.version < CHUNKED_VERSION && h.chunk_count != 0 {
         return Err(bad(108, "reserved field is not zero".into()));
+    }
+    if h.chunk_count > limits.max_chunks {
+        return Err(DecodeError::LimitExceeded {
+            place: Where::Preamble,
+            offset: 108,
+            what: "chunk_count",
+            value: h.chunk_count.into(),
+            limit: limits.max_chunks.into(),
+        });
     }
     if !h.origin.iter().chain(&h.cube_min).chain(&h.cube_max).chain([&h.step]).all(|v| v.is_finite()) {
         return Err(bad(24, "origin, step or cube is not finite".into()));
@@ -225,7 +285,8 @@ pub fn parse_rest(
     limits: &crate::Limits,
 ) -> Result<Preamble, DecodeError> {
     let n = header.level_count as usize;
-    let table_end = n * ENTRY_SIZE;
+    let index_end = n * ENTRY_SIZE;
+    let table_end = index_end + header.chunk_count as usize * CHUNK_ENTRY_SIZE;
     let meta_end = table_end + header.metadata_size as usize;
     debug_assert_eq!(rest.len(), meta_end + 8);
     let stored = u64::from_le_bytes(rest[meta_end..].try_into().expect("8 bytes"));
@@ -239,6 +300,7 @@ pub fn parse_rest(
         return Err(DecodeError::ChecksumMismatch { place: Where::Preamble, offset: 0, stored, computed });
     }
     let preamble_size = (HEADER_SIZE + meta_end + 8) as u64;
+    let chunked = header.version >= CHUNKED_VERSION;
     let mut levels = Vec::with_capacity(n);
     let mut next = preamble_size;
     for k in 0..n {
@@ -253,8 +315,18 @@ pub fn parse_rest(
         if e.offset != next {
             return Err(bad(0, format!("offset is {}, levels must follow each other: expected {next}", e.offset)));
         }
-        if e.reserved != 0 {
+        if !chunked && e.cell_depth != 0 {
             return Err(bad(44, "reserved field is not zero".into()));
+        }
+        if chunked {
+            let prev = levels.last().map_or(0, |p: &LevelEntry| p.cell_depth);
+            let most = if k == 0 { 0 } else { (k as u32 - 1).min(crate::topology::slots::MAX_LATTICE_DEPTH) };
+            if e.cell_depth < prev || e.cell_depth > most.max(prev) {
+                return Err(bad(
+                    44,
+                    format!("cell_depth is {}, must be in {prev}..={} (spec §11.1)", e.cell_depth, most.max(prev)),
+                ));
+            }
         }
         let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
             if value > limit {
@@ -277,8 +349,13 @@ pub fn parse_rest(
         next = e.offset + e.stored_size;
         levels.push(e);
     }
+    let chunks = if chunked {
+        crate::chunked::parse_index(&rest[index_end..table_end], HEADER_SIZE + index_end, &levels, limits)?
+    } else {
+        Vec::new()
+    };
     let metadata: Metadata = from_bytes(&rest[table_end..meta_end], (HEADER_SIZE + table_end) as u64, "metadata")?;
-    Ok(Preamble { header, levels, metadata })
+    Ok(Preamble { header, levels, chunks, metadata })
 }
 
 /// What the preamble of a file says about one level.
@@ -298,6 +375,10 @@ pub struct LevelInfo {
     pub face_count: u32,
     /// Face corners.
     pub corner_count: u32,
+    /// Version 5: the depth of the level's chunk cells (0 before).
+    pub cell_depth: u32,
+    /// Version 5: the level's chunks (1 before).
+    pub chunk_count: u32,
 }
 
 /// What the preamble of a file says.
@@ -365,7 +446,14 @@ impl FileInfo {
             levels: p
                 .levels
                 .iter()
-                .map(|e| LevelInfo {
+                .enumerate()
+                .map(|(k, e)| LevelInfo {
+                    cell_depth: e.cell_depth,
+                    chunk_count: if h.version >= CHUNKED_VERSION {
+                        p.chunks.iter().filter(|c| usize::from(c.level) == k).count() as u32
+                    } else {
+                        1
+                    },
                     offset: e.offset,
                     stored_size: e.stored_size,
                     raw_size: e.raw_size,
@@ -398,7 +486,7 @@ mod tests {
             cube_min: [1.0, -2.0, 0.5],
             cube_max: [2.0, -1.0, 1.5],
             metadata_size: 40,
-            reserved: 0,
+            chunk_count: 0,
         };
         // Written by hand from spec §3.1.
         let mut want = MAGIC.to_vec();
@@ -423,7 +511,7 @@ mod tests {
             vertex_count: 4,
             face_count: 1,
             corner_count: 4,
-            reserved: 0,
+            cell_depth: 0,
         };
         let mut want = Vec::new();
         for v in [0x0102u64, 7, 9, 0xdead_beef] {

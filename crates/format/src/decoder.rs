@@ -47,6 +47,13 @@ pub fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Dec
             Err(e) => return Err(e.into()),
         }
     }
+    let header = check_head(&head, got, limits)?;
+    let rest = read_vec(r, rest_len(&header), HEADER_SIZE as u64, "level table, chunk index, metadata and preamble checksum")?;
+    container::parse_rest(header, &head, &rest, limits)
+}
+
+/// Checks the first `got` bytes of a file (spec §7.1 steps 1 and 2) and parses its header.
+pub fn check_head(head: &[u8; HEADER_SIZE], got: usize, limits: &Limits) -> Result<container::FileHeader, DecodeError> {
     let m = got.min(8);
     if head[..m] != MAGIC[..m] {
         return Err(DecodeError::BadMagic { found: head[..m].to_vec() });
@@ -59,10 +66,15 @@ pub fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Dec
             got: got as u64,
         });
     }
-    let header = container::parse_header(&head, limits)?;
-    let rest_len = ENTRY_SIZE as u64 * u64::from(header.level_count) + u64::from(header.metadata_size) + 8;
-    let rest = read_vec(r, rest_len, HEADER_SIZE as u64, "level table, metadata and preamble checksum")?;
-    container::parse_rest(header, &head, &rest, limits)
+    container::parse_header(head, limits)
+}
+
+/// Bytes of the preamble after the header.
+pub fn rest_len(header: &container::FileHeader) -> u64 {
+    ENTRY_SIZE as u64 * u64::from(header.level_count)
+        + container::CHUNK_ENTRY_SIZE as u64 * u64::from(header.chunk_count)
+        + u64::from(header.metadata_size)
+        + 8
 }
 
 /// Reads only the preamble: levels, sizes, counts, quantization, metadata.
@@ -141,6 +153,8 @@ fn decode_levels(
             reason: "cannot create a decompression context".into(),
         })?),
     };
+    let chunked = h.version >= container::CHUNKED_VERSION;
+    let mut chunk_parents = Default::default();
     for k in 0..=last {
         let e = &pre.levels[k as usize];
         let stored = &mut buffers.stored;
@@ -153,6 +167,11 @@ fn decode_levels(
                 stored: e.checksum,
                 computed,
             });
+        }
+        if chunked {
+            let lv = crate::chunked::decode_whole_level(pre, k, stored, &mut chunk_parents, k < last)?;
+            out.levels.push(into_level(lv, origin, h.step));
+            continue;
         }
         let payload = &mut buffers.payload;
         decompress_level(unzstd, stored, (k, e), payload, |head| BlockHeader::parse(k, head, e, gi).map(drop))?;
@@ -193,7 +212,7 @@ fn reject_trailing_bytes(r: &mut impl Read, e: &LevelEntry, k: u32) -> Result<()
 /// the first [`BLOCK_HEADER_SIZE`] bytes go to `check_header` before anything more is
 /// decompressed; then the output grows with what the frame produces, never beyond `raw_size` (a
 /// frame that expands further fails as soon as it passes that size); nothing may follow the frame.
-fn decompress_level(
+pub(crate) fn decompress_level(
     unzstd: &mut zstd::zstd_safe::DCtx<'static>,
     stored: &[u8],
     (k, e): (u32, &LevelEntry),

@@ -220,6 +220,9 @@ fn encode_inner(
     opts: &EncodeOptions,
     with_stats: bool,
 ) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    if opts.version >= container::CHUNKED_VERSION {
+        return encode_chunked(h, opts, with_stats);
+    }
     let mut blocks = Vec::with_capacity(h.levels.len());
     let mut stats = Vec::with_capacity(h.levels.len());
     let grid = encode_levels(h, opts, |enc| {
@@ -242,6 +245,32 @@ fn encode_inner(
         blocks.push((enc.payload.len() as u64, stored, counts));
         Ok(())
     })?;
+    let header = file_header(h, opts, &grid, blocks.len())?;
+    let mut offset = (HEADER_SIZE + ENTRY_SIZE * blocks.len() + header.metadata_size as usize + 8) as u64;
+    let mut levels = Vec::with_capacity(blocks.len());
+    for (raw, stored, (nv, nf, nc)) in &blocks {
+        levels.push(LevelEntry {
+            offset,
+            stored_size: stored.len() as u64,
+            raw_size: *raw,
+            checksum: xxh3_64(stored),
+            vertex_count: *nv,
+            face_count: *nf,
+            corner_count: *nc,
+            cell_depth: 0,
+        });
+        offset += stored.len() as u64;
+    }
+    let pre = Preamble { header, levels, chunks: Vec::new(), metadata: opts.metadata.clone() };
+    let mut out = pre.to_bytes();
+    for (_, stored, _) in blocks {
+        out.extend(stored);
+    }
+    Ok((out, stats))
+}
+
+/// The file header of `h` written with `opts` on `grid` (spec §3.1); `chunk_count` 0.
+fn file_header(h: &Hierarchy, opts: &EncodeOptions, grid: &Grid, level_count: usize) -> Result<FileHeader, EncodeError> {
     let metadata_bytes = container::to_bytes(&opts.metadata);
     let mut flags = 0;
     if h.cube.is_some() {
@@ -259,7 +288,7 @@ fn encode_inner(
         version: opts.version,
         header_size: HEADER_SIZE as u16,
         flags,
-        level_count: blocks.len() as u32,
+        level_count: level_count as u32,
         grid_bits: grid.bits,
         origin: grid.origin.to_array(),
         step: grid.step,
@@ -267,27 +296,127 @@ fn encode_inner(
         cube_max,
         metadata_size: u32::try_from(metadata_bytes.len())
             .map_err(|_| EncodeError::Options("metadata larger than 4 GiB".into()))?,
-        reserved: 0,
+        chunk_count: 0,
     };
-    let mut offset = (HEADER_SIZE + ENTRY_SIZE * blocks.len() + metadata_bytes.len() + 8) as u64;
-    let mut levels = Vec::with_capacity(blocks.len());
-    for (raw, stored, (nv, nf, nc)) in &blocks {
-        levels.push(LevelEntry {
-            offset,
-            stored_size: stored.len() as u64,
-            raw_size: *raw,
-            checksum: xxh3_64(stored),
-            vertex_count: *nv,
-            face_count: *nf,
-            corner_count: *nc,
-            reserved: 0,
-        });
-        offset += stored.len() as u64;
+    Ok(header)
+}
+
+
+/// A version 5 file (spec §11): every level in chunks, each chunk coded against its parent chunk.
+fn encode_chunked(h: &Hierarchy, opts: &EncodeOptions, with_stats: bool) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    use crate::chunks;
+    if h.levels.is_empty() {
+        return Err(EncodeError::Empty);
     }
-    let pre = Preamble { header, levels, metadata: opts.metadata.clone() };
+    if h.levels.len() > 32 {
+        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
+    }
+    h.check_links()?;
+    check_version(opts)?;
+    let grid = choose_grid(h, opts.quantization)?;
+    let plan = chunks::plan(h, opts.chunk_shift)
+        .filter(|p| (grid.exact || grid.tied) && chunks::seams_distinct(h, p, &grid))
+        .unwrap_or_else(|| chunks::whole_levels(h));
+    let mut stored: Vec<Vec<u8>> = Vec::with_capacity(plan.len());
+    let mut entries: Vec<container::ChunkEntry> = Vec::with_capacity(plan.len());
+    let mut stats = vec![LevelStats::default(); h.levels.len()];
+    chunks::encode_chunks(h, &grid, opts.version, &plan, |ci, enc| {
+        let c = &plan[ci];
+        let frame = zstd::bulk::compress(&enc.payload, opts.zstd_level)?;
+        let st = &mut stats[c.level as usize];
+        st.mode = enc.payload[0];
+        (st.predictor, st.line_shift) = enc.predictor;
+        st.stored += frame.len();
+        if with_stats {
+            let geo = enc.payload.len() - enc.split_bytes.1;
+            st.topology += zstd::bulk::compress(&enc.payload[..geo], opts.zstd_level)?.len();
+            st.geometry += zstd::bulk::compress(&enc.payload[geo..], opts.zstd_level)?.len();
+        }
+        let lv = &enc.level;
+        let (lo, hi) = chunk_box(lv, &grid);
+        let too_big = || EncodeError::Unsupported { level: c.level as usize, reason: "a chunk larger than 4 GiB".into() };
+        entries.push(container::ChunkEntry {
+            offset: 0,
+            checksum: xxh3_64(&frame),
+            stored_size: u32::try_from(frame.len()).map_err(|_| too_big())?,
+            raw_size: u32::try_from(enc.payload.len()).map_err(|_| too_big())?,
+            parent: c.parent.unwrap_or(container::NO_CHUNK),
+            level: c.level as u16,
+            reserved: 0,
+            cell: c.cell,
+            vertex_count: lv.q.len().max(lv.exact.len()) as u32,
+            face_count: lv.parents.len() as u32,
+            corner_count: lv.indices.len() as u32,
+            bbox_min: lo,
+            bbox_max: hi,
+            geometric_error: -1.0,
+            reserved2: 0,
+        });
+        stored.push(frame);
+        Ok(())
+    })?;
+    let mut header = file_header(h, opts, &grid, h.levels.len())?;
+    header.chunk_count = u32::try_from(entries.len()).map_err(|_| EncodeError::Options("too many chunks".into()))?;
+    let preamble_size = (HEADER_SIZE
+        + ENTRY_SIZE * h.levels.len()
+        + container::CHUNK_ENTRY_SIZE * entries.len()
+        + header.metadata_size as usize
+        + 8) as u64;
+    let mut offset = preamble_size;
+    for (e, s) in entries.iter_mut().zip(&stored) {
+        e.offset = offset;
+        offset += s.len() as u64;
+    }
+    let mut levels = Vec::with_capacity(h.levels.len());
+    for (k, l) in h.levels.iter().enumerate() {
+        let ids: Vec<usize> = (0..plan.len()).filter(|&i| plan[i].level as usize == k).collect();
+        let mut sum = xxhash_rust::xxh3::Xxh3::new();
+        for &i in &ids {
+            sum.update(&stored[i]);
+        }
+        let first = ids.first().map_or(offset, |&i| entries[i].offset);
+        levels.push(LevelEntry {
+            offset: first,
+            stored_size: ids.iter().map(|&i| u64::from(entries[i].stored_size)).sum(),
+            raw_size: ids.iter().map(|&i| u64::from(entries[i].raw_size)).sum(),
+            checksum: sum.digest(),
+            vertex_count: l.mesh.vertices.len() as u32,
+            face_count: ids.iter().map(|&i| entries[i].face_count).sum(),
+            corner_count: ids.iter().map(|&i| entries[i].corner_count).sum(),
+            cell_depth: ids.first().map_or(0, |&i| plan[i].depth),
+        });
+    }
+    let pre = Preamble { header, levels, chunks: entries, metadata: opts.metadata.clone() };
     let mut out = pre.to_bytes();
-    for (_, stored, _) in blocks {
-        out.extend(stored);
+    debug_assert_eq!(out.len() as u64, preamble_size);
+    for s in stored {
+        out.extend(s);
     }
     Ok((out, stats))
+}
+
+/// The box around a chunk's decoded vertices in world units, rounded outwards to binary32.
+fn chunk_box(lv: &PlainLevel, grid: &Grid) -> ([f32; 3], [f32; 3]) {
+    let mut b = Aabb::EMPTY;
+    if grid.exact {
+        for p in &lv.exact {
+            b.grow(DVec3::from_array(*p));
+        }
+    } else {
+        for q in &lv.q {
+            b.grow(grid.position(*q));
+        }
+    }
+    if b.is_empty() {
+        return ([0.0; 3], [0.0; 3]);
+    }
+    let down = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) > x { f.next_down() } else { f }
+    };
+    let up = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) < x { f.next_up() } else { f }
+    };
+    (b.min.to_array().map(down), b.max.to_array().map(up))
 }

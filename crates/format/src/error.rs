@@ -13,6 +13,10 @@ pub enum Where {
     Level(u32),
     /// The decompressed payload of level `k`. Offsets count from the payload's first byte.
     Payload(u32),
+    /// The stored (compressed) bytes of chunk `c` of level `k` (version 5). File offsets.
+    Chunk(u32, u32),
+    /// The decompressed payload of chunk `c` of level `k`. Offsets count from its first byte.
+    ChunkPayload(u32, u32),
 }
 
 impl fmt::Display for Where {
@@ -21,6 +25,8 @@ impl fmt::Display for Where {
             Self::Preamble => write!(f, "preamble, file byte"),
             Self::Level(k) => write!(f, "level {k}, file byte"),
             Self::Payload(k) => write!(f, "level {k}, decompressed payload byte"),
+            Self::Chunk(k, c) => write!(f, "level {k}, chunk {c}, file byte"),
+            Self::ChunkPayload(k, c) => write!(f, "level {k}, chunk {c}, decompressed payload byte"),
         }
     }
 }

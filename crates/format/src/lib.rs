@@ -81,6 +81,8 @@
 //! * `placement` — Appendix A "Line placement": moving vertices onto their prediction lines.
 
 mod block;
+mod chunked;
+mod chunks;
 mod bytes;
 mod container;
 mod decoder;
@@ -104,6 +106,8 @@ use std::path::Path;
 
 use octowrap_mesh::{DVec3, Hierarchy};
 
+pub use chunks::CHUNK_SHIFT;
+pub use chunked::{ChunkInfo, ChunkedMrq, RangeSource, ReadStats, SeekSource};
 pub use container::{CRS_KEY, FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo};
 pub use decoder::{decode, decode_bytes, read_info};
 pub use encoder::{encode, encode_to, encode_with_stats};
@@ -113,9 +117,11 @@ pub use geometry::fixed::FixedLine;
 pub use limits::Limits;
 pub use placement::{LinePlacement, place_on_prediction_lines};
 
-/// The newest format version (spec §3.1): the version this crate writes by default
-/// ([`EncodeOptions::version`] selects 2 instead). The decoder reads every version from 1 to this.
-pub const FORMAT_VERSION: u16 = 4;
+/// The newest format version (spec §3.1). The decoder reads every version from 1 to this; the
+/// encoder writes versions 2 to this ([`EncodeOptions::version`]).
+pub const FORMAT_VERSION: u16 = 5;
+/// The version [`EncodeOptions::default`] writes.
+pub const DEFAULT_VERSION: u16 = 4;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 
@@ -154,10 +160,14 @@ pub struct EncodeOptions {
     pub zstd_level: i32,
     /// Units, source and further key-value pairs to record.
     pub metadata: Metadata,
-    /// Format version to write, 2 or 3 (default [`FORMAT_VERSION`], 3). Version 3 codes lattice
-    /// refinements in mode 3 (spec §5.9, §6.8: vertices numbered by first use, integer geometry
-    /// from the parent), which decodes faster; version 2 codes them in mode 2 (§5.7, §6.2-§6.6).
+    /// Format version to write, 2 to 5 (default 4). Version 3 codes lattice refinements in mode 3
+    /// (spec §5.9, §6.8: vertices numbered by first use, integer geometry from the parent), which
+    /// decodes faster; version 2 codes them in mode 2 (§5.7, §6.2-§6.6); version 4 adds value
+    /// blocks (§6.9); version 5 stores every level in chunks (§11).
     pub version: u16,
+    /// Version 5: level `k`'s chunk cells have depth `k - chunk_shift` (at least 0), so that a
+    /// chunk holds some `4^chunk_shift` faces (default [`CHUNK_SHIFT`]).
+    pub chunk_shift: u32,
 }
 
 impl Default for EncodeOptions {
@@ -166,7 +176,8 @@ impl Default for EncodeOptions {
             quantization: Quantization::Bits(16),
             zstd_level: 19,
             metadata: Metadata::default(),
-            version: FORMAT_VERSION,
+            version: DEFAULT_VERSION,
+            chunk_shift: CHUNK_SHIFT,
         }
     }
 }

@@ -26,6 +26,8 @@ pub struct Limits {
     pub max_corners: u32,
     /// Largest metadata block in bytes (default 16 MiB).
     pub max_metadata_bytes: u32,
+    /// Most chunks in a file (version 5, spec §11; default 2^20).
+    pub max_chunks: u32,
 }
 
 impl Default for Limits {
@@ -37,6 +39,7 @@ impl Default for Limits {
             max_faces: 1 << 28,
             max_corners: 1 << 30,
             max_metadata_bytes: 16 << 20,
+            max_chunks: 1 << 20,
         }
     }
 }
@@ -51,6 +54,7 @@ impl Limits {
             max_faces: 1 << 20,
             max_corners: 1 << 22,
             max_metadata_bytes: 1 << 20,
+            max_chunks: 1 << 16,
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Byte surgery for building invalid conformance and hostile files (feature `testing`).
 
 use crate::Limits;
-use crate::container::{ENTRY_SIZE, HEADER_SIZE};
+use crate::container::{CHUNK_ENTRY_SIZE, ENTRY_SIZE, HEADER_SIZE};
 use crate::decoder::read_preamble;
 
 /// Recomputes the preamble checksum of `bytes` in place (after editing header, table or
@@ -12,7 +12,10 @@ pub fn fix_preamble_checksum(bytes: &mut [u8]) -> bool {
     }
     let levels = u32::from_le_bytes(bytes[16..20].try_into().expect("4 bytes")) as usize;
     let meta = u32::from_le_bytes(bytes[104..108].try_into().expect("4 bytes")) as usize;
-    let end = HEADER_SIZE + ENTRY_SIZE * levels + meta;
+    let version = u16::from_le_bytes(bytes[8..10].try_into().expect("2 bytes"));
+    let chunks =
+        if version >= 5 { u32::from_le_bytes(bytes[108..112].try_into().expect("4 bytes")) as usize } else { 0 };
+    let end = HEADER_SIZE + ENTRY_SIZE * levels + CHUNK_ENTRY_SIZE * chunks + meta;
     if bytes.len() < end + 8 {
         return false;
     }

@@ -107,6 +107,19 @@ fn valid_set() -> Vec<(&'static str, Vec<u8>)> {
         // every vertex below level 0 pressed onto the cube's face x = 1 (grid x = 2^28).
         ("clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &q(28)).unwrap()),
         ("v3_clamped_predictions_q28", encode(&pressed(cube_hierarchy(3, Edits::default(), 3)), &v3(q(28))).unwrap()),
+        // Format version 5 (spec §11): levels in chunks; a chunk shift of 1 splits levels 2 and 3
+        // into cells of depth 1 and 2.
+        ("v5_cube4_chunks_q12", encode(&cube_hierarchy(4, Edits::default(), 3), &v5(q(12), 1)).unwrap()),
+        (
+            "v5_cube4_chunks_lines_q12",
+            encode(&placed_with(cube_hierarchy(4, Edits::default(), 3), &v5(q(12), 1)), &v5(q(12), 1)).unwrap(),
+        ),
+        ("v5_cube4_chunks_exact", encode(&cube_hierarchy(4, Edits::default(), 4), &v5(exact.clone(), 1)).unwrap()),
+        // Without lattice coordinates: one chunk per level.
+        (
+            "v5_cube3_generic_q12",
+            encode(&without_lattice(cube_hierarchy(3, Edits::default(), 5)), &v5(q(12), 1)).unwrap(),
+        ),
         // Format version 4 (spec §6.9): mode 3 geometry in value blocks, range coded or byte planes.
         ("v4_cube3_lattice_q12", encode(&cube_hierarchy(4, Edits::default(), 3), &v4(q(12))).unwrap()),
         (
@@ -196,6 +209,13 @@ fn pressed(mut h: Hierarchy) -> Hierarchy {
     h
 }
 
+/// `opts` writing format version 5 with chunk shift `shift`.
+fn v5(mut opts: EncodeOptions, shift: u32) -> EncodeOptions {
+    opts.version = 5;
+    opts.chunk_shift = shift;
+    opts
+}
+
 /// `opts` writing format version 4.
 fn v4(mut opts: EncodeOptions) -> EncodeOptions {
     opts.version = 4;
@@ -248,8 +268,8 @@ fn invalid_set() -> Vec<Invalid> {
     b[1] = b'X';
     out.push(("bad_magic.mrq", "§3.1", "not-mrq", "the second magic byte is `X`", b));
     let mut b = base.clone();
-    b[8] = 5;
-    out.push(("version_5.mrq", "§3.1", "unsupported-version", "version 5", b));
+    b[8] = 6;
+    out.push(("version_6.mrq", "§3.1", "unsupported-version", "version 6", b));
     out.push(("truncated_header.mrq", "§3.1", "truncated", "the file ends inside the header", base[..60].to_vec()));
     let l1 = level1(&base);
     let cut = (l1.offset + l1.stored_size / 2) as usize;
@@ -312,6 +332,7 @@ fn invalid_set() -> Vec<Invalid> {
     ));
     out.extend(invalid_lines_set());
     out.extend(invalid_v3_set());
+    out.extend(invalid_v5_set());
     out.extend(invalid_mode3_set());
     let mut p = good_payloads;
     p[1][64] |= 0xf0;
@@ -326,6 +347,71 @@ fn invalid_set() -> Vec<Invalid> {
 }
 
 /// Invalid files about line geometry (spec §6.6), from a placed hierarchy.
+/// Version 5 files that break the chunk rules of spec §11, from `valid/v5_cube4_chunks_q12.mrq`'s
+/// hierarchy.
+fn invalid_v5_set() -> Vec<Invalid> {
+    let base = encode(&cube_hierarchy(4, Edits::default(), 3), &v5(q(12), 1)).unwrap();
+    let levels = 4usize;
+    let chunks = u32::from_le_bytes(base[108..112].try_into().unwrap()) as usize;
+    let entry = |i: usize| 112 + 48 * levels + 88 * i;
+    let level_of = |b: &[u8], i: usize| u16::from_le_bytes(b[entry(i) + 28..entry(i) + 30].try_into().unwrap());
+    let first_of = |k: u16| (0..chunks).find(|&i| level_of(&base, i) == k).unwrap();
+    let sealed = |mut b: Vec<u8>| {
+        assert!(fix_preamble_checksum(&mut b));
+        b
+    };
+    let put32 = |b: &mut Vec<u8>, at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    let get32 = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    let mut out: Vec<Invalid> = Vec::new();
+    // A stored byte of a level 3 chunk changed: the level's checksum fails first.
+    let c3 = first_of(3);
+    let mut b = base.clone();
+    let off = u64::from_le_bytes(b[entry(c3)..entry(c3) + 8].try_into().unwrap()) as usize;
+    b[off + 3] ^= 0x40;
+    out.push(("v5_chunk_stored_byte.mrq", "§11.3", "checksum", "a stored byte of a level 3 chunk changed", b));
+    // The second level 3 chunk names the first level 3 chunk's parent's sibling as its parent.
+    let c2 = first_of(2);
+    let mut b = base.clone();
+    let p = get32(&b, entry(c3 + 1) + 24);
+    put32(&mut b, entry(c3 + 1) + 24, if p as usize == c2 { p + 1 } else { c2 as u32 });
+    out.push(("v5_chunk_parent_cell.mrq", "§11.2", "invalid", "a chunk's parent chunk's cell does not hold its cell", sealed(b)));
+    // Two level 3 chunks' cells swapped: the cells are not in increasing Morton order.
+    let mut b = base.clone();
+    let (x, y) = (entry(c3) + 32, entry(c3 + 1) + 32);
+    let (cx, cy) = (b[x..x + 12].to_vec(), b[y..y + 12].to_vec());
+    b[x..x + 12].copy_from_slice(&cy);
+    b[y..y + 12].copy_from_slice(&cx);
+    out.push(("v5_chunk_morton_order.mrq", "§11.2", "invalid", "two chunks of level 3 listed out of Morton order", sealed(b)));
+    // A chunk's offset one byte on.
+    let mut b = base.clone();
+    let o = u64::from_le_bytes(b[entry(c3 + 1)..entry(c3 + 1) + 8].try_into().unwrap());
+    b[entry(c3 + 1)..entry(c3 + 1) + 8].copy_from_slice(&(o + 1).to_le_bytes());
+    out.push(("v5_chunk_offset_gap.mrq", "§11.2", "invalid", "a chunk does not start where the one before ends", sealed(b)));
+    // Level 2's cell depth 2 (at most 1 at level 2).
+    let mut b = base.clone();
+    put32(&mut b, 112 + 48 * 2 + 44, 2);
+    out.push(("v5_cell_depth_too_deep.mrq", "§11.1", "invalid", "level 2 has cell depth 2", sealed(b)));
+    // Level 3's vertex count one short of what its chunks merge into.
+    let mut b = base.clone();
+    let nv = get32(&b, 112 + 48 * 3 + 32);
+    put32(&mut b, 112 + 48 * 3 + 32, nv - 1);
+    out.push(("v5_merged_vertex_count.mrq", "§11.4", "invalid", "level 3's chunks merge into one vertex more than the level table says", sealed(b)));
+    // A chunk's face count one more than its block holds (the level's sum no longer matches).
+    let mut b = base.clone();
+    let nf = get32(&b, entry(c3) + 48);
+    put32(&mut b, entry(c3) + 48, nf + 1);
+    out.push(("v5_chunk_face_count.mrq", "§11.2", "invalid", "a chunk's face count does not add up to its level's", sealed(b)));
+    // More chunks than the strict limits allow.
+    let mut b = base.clone();
+    put32(&mut b, 108, 1 << 17);
+    out.push(("v5_too_many_chunks.mrq", "§7.2", "limit", "chunk_count 2^17 (the strict limit is 2^16)", b));
+    // A version 4 file that declares chunks.
+    let mut b = encode(&cube_hierarchy(3, Edits::default(), 3), &v4(q(12))).unwrap();
+    put32(&mut b, 108, 1);
+    out.push(("v5_chunks_in_version_4.mrq", "§3.1", "invalid", "a version 4 header with chunk_count 1", sealed(b)));
+    out
+}
+
 fn invalid_lines_set() -> Vec<Invalid> {
     let mut out = Vec::new();
     let lines = encode(&placed(cube_hierarchy(3, Edits::default(), 3)), &q(12)).unwrap();
@@ -668,6 +754,11 @@ fn check_valid(sub: &str) -> usize {
         // (In the file's own version: versions 2 and 3 order vertices differently.)
         let mut exact = EncodeOptions::with_quantization(Quantization::Exact);
         exact.version = file.info.version.max(2);
+        // Version 5: the chunk shift the file was written with.
+        let levels = file.info.levels.iter().enumerate();
+        if let Some(shift) = levels.filter(|(_, l)| l.cell_depth > 0).map(|(k, l)| k as u32 - l.cell_depth).min() {
+            exact.chunk_shift = shift;
+        }
         let again = encode(&file.hierarchy, &exact).unwrap();
         let back = decode(&again[..], &DecodeOptions::default()).unwrap();
         assert_eq!(back.hierarchy, file.hierarchy, "{}", path.display());
@@ -717,7 +808,7 @@ fn invalid_files_fail_as_stated() {
              `valid/cube3_lattice_q12.mrq`'s hierarchy, the files about line \
              geometry (`lines_*`, `line_shift_*`, `reserved_predictor_bits`) from \
              `valid/cube3_lattice_lines_q12.mrq`'s, the `v3_` files from \
-             `regress/v3_splits_and_exceptions.mrq`'s.\n\n| file | violates | error class | what is wrong \
+             `regress/v3_splits_and_exceptions.mrq`'s, the `v5_` files from `valid/v5_cube4_chunks_q12.mrq`'s.\n\n| file | violates | error class | what is wrong \
              |\n|---|---|---|---|\n",
         );
         for (name, section, class, what, bytes) in invalid_set() {
