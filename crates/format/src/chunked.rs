@@ -35,7 +35,11 @@ pub fn parse_index(
     }
     for i in 0..n {
         let at = file_offset + i * CHUNK_ENTRY_SIZE;
-        let c: ChunkEntry = container::from_bytes(&bytes[i * CHUNK_ENTRY_SIZE..(i + 1) * CHUNK_ENTRY_SIZE], at as u64, "chunk index entry")?;
+        let c: ChunkEntry = container::from_bytes(
+            &bytes[i * CHUNK_ENTRY_SIZE..(i + 1) * CHUNK_ENTRY_SIZE],
+            at as u64,
+            "chunk index entry",
+        )?;
         let bad = |off: usize, reason: String| DecodeError::Invalid {
             place: Where::Preamble,
             offset: (at + off) as u64,
@@ -54,11 +58,17 @@ pub fn parse_index(
         }
         let depth = levels[k].cell_depth;
         if c.cell.iter().any(|&x| u64::from(x) >= 1u64 << depth) {
-            return Err(bad(32, format!("cell {:?} lies outside the {}^3 cells of depth {depth}", c.cell, 1u64 << depth)));
+            return Err(bad(
+                32,
+                format!("cell {:?} lies outside the {}^3 cells of depth {depth}", c.cell, 1u64 << depth),
+            ));
         }
         if let Some(p) = out.last().filter(|p| usize::from(p.level) == k) {
             if crate::chunks::cell_morton(p.cell) >= crate::chunks::cell_morton(c.cell) {
-                return Err(bad(32, "a level's chunks must be listed in increasing Morton order of their cells".into()));
+                return Err(bad(
+                    32,
+                    "a level's chunks must be listed in increasing Morton order of their cells".into(),
+                ));
             }
         }
         if c.parent != NO_CHUNK {
@@ -66,16 +76,28 @@ pub fn parse_index(
                 return Err(bad(24, format!("parent chunk {} is not listed before it", c.parent)));
             };
             if usize::from(p.level) + 1 != k {
-                return Err(bad(24, format!("parent chunk {} is of level {}, not {}", c.parent, p.level, k.wrapping_sub(1))));
+                return Err(bad(
+                    24,
+                    format!("parent chunk {} is of level {}, not {}", c.parent, p.level, k.wrapping_sub(1)),
+                ));
             }
             let up = depth - levels[k - 1].cell_depth;
             if p.cell != c.cell.map(|x| x >> up) {
-                return Err(bad(24, format!("parent chunk {}'s cell {:?} does not hold cell {:?}", c.parent, p.cell, c.cell)));
+                return Err(bad(
+                    24,
+                    format!("parent chunk {}'s cell {:?} does not hold cell {:?}", c.parent, p.cell, c.cell),
+                ));
             }
         }
         let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
             if value > limit {
-                Err(DecodeError::LimitExceeded { place: Where::Preamble, offset: (at + off) as u64, what, value, limit })
+                Err(DecodeError::LimitExceeded {
+                    place: Where::Preamble,
+                    offset: (at + off) as u64,
+                    what,
+                    value,
+                    limit,
+                })
             } else {
                 Ok(())
             }
@@ -93,7 +115,10 @@ pub fn parse_index(
         }
         let s = &mut sums[k];
         if c.offset != s.1 {
-            return Err(bad(0, format!("offset is {}, a level's chunks follow each other: expected {}", c.offset, s.1)));
+            return Err(bad(
+                0,
+                format!("offset is {}, a level's chunks follow each other: expected {}", c.offset, s.1),
+            ));
         }
         s.0 += 1;
         s.1 += u64::from(c.stored_size);
@@ -165,7 +190,9 @@ fn in_chunk(e: DecodeError, c: u32) -> DecodeError {
         other => other,
     };
     match e {
-        DecodeError::Invalid { place, offset, what, reason } => DecodeError::Invalid { place: re(place), offset, what, reason },
+        DecodeError::Invalid { place, offset, what, reason } => {
+            DecodeError::Invalid { place: re(place), offset, what, reason }
+        }
         DecodeError::LimitExceeded { place, offset, what, value, limit } => {
             DecodeError::LimitExceeded { place: re(place), offset, what, value, limit }
         }
@@ -221,7 +248,12 @@ fn decode_chunk(
     let k = u32::from(c.level);
     let computed = xxh3_64(stored);
     if computed != c.checksum {
-        return Err(DecodeError::ChecksumMismatch { place: Where::Chunk(k, ci), offset: c.offset, stored: c.checksum, computed });
+        return Err(DecodeError::ChecksumMismatch {
+            place: Where::Chunk(k, ci),
+            offset: c.offset,
+            stored: c.checksum,
+            computed,
+        });
     }
     let unzstd = match &mut buffers.unzstd {
         Some(z) => z,
@@ -333,7 +365,8 @@ pub fn merge_chunks(
         let base = *out.offsets.last().expect("offsets");
         out.offsets.extend(p.offsets[1..].iter().map(|&o| base + o));
         out.indices.extend(p.indices.iter().map(|&v| remap[v as usize]));
-        out.parents.extend(p.parents.iter().map(|&f| if f == NO_PARENT { NO_PARENT } else { f + parent_face_offset[i] }));
+        out.parents
+            .extend(p.parents.iter().map(|&f| if f == NO_PARENT { NO_PARENT } else { f + parent_face_offset[i] }));
         out.quadrants.extend(&p.quadrants);
         if let (Some(os), Some(ps)) = (&mut out.slots, &p.slots) {
             os.extend(ps);
@@ -417,6 +450,12 @@ impl RangeSource for &[u8] {
             }
             None => Err(std::io::ErrorKind::UnexpectedEof.into()),
         }
+    }
+}
+
+impl<S: RangeSource + ?Sized> RangeSource for &mut S {
+    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        (**self).read_range(offset, buf)
     }
 }
 
@@ -642,7 +681,8 @@ impl<S: RangeSource> ChunkedMrq<S> {
         let parts: Vec<PlainLevel> = ids.iter().map(|c| done.remove(c).expect("decoded")).collect();
         let zeros = vec![0u32; parts.len()];
         let depth = if self.pre.header.version >= CHUNKED_VERSION { self.pre.levels[k as usize].cell_depth } else { 0 };
-        let merged = if parts.is_empty() { PlainLevel::default() } else { merge_chunks(k, parts, &zeros, k - depth, None)? };
+        let merged =
+            if parts.is_empty() { PlainLevel::default() } else { merge_chunks(k, parts, &zeros, k - depth, None)? };
         let h = &self.pre.header;
         let origin = DVec3::from_array(h.origin);
         let positions: Vec<DVec3> = if merged.exact.is_empty() {

@@ -67,12 +67,8 @@ pub fn plan(h: &Hierarchy, shift: u32) -> Option<Vec<ChunkPlan>> {
         let depth = cell_depth(k, shift);
         let sh = k - depth;
         let cell_of = |v: [u32; 3]| [v[0] >> sh, v[1] >> sh, v[2] >> sh];
-        let mut by_cell: Vec<(u64, u32)> = lattice
-            .face_slots
-            .iter()
-            .enumerate()
-            .map(|(f, &(v, _))| (cell_morton(cell_of(v)), f as u32))
-            .collect();
+        let mut by_cell: Vec<(u64, u32)> =
+            lattice.face_slots.iter().enumerate().map(|(f, &(v, _))| (cell_morton(cell_of(v)), f as u32)).collect();
         by_cell.sort_unstable();
         let first = out.len() as u32;
         let mut chunk_of = vec![0u32; level.origins.len()];
@@ -102,10 +98,8 @@ pub fn plan(h: &Hierarchy, shift: u32) -> Option<Vec<ChunkPlan>> {
             if parent.is_none() && k > 0 {
                 // Only created faces: the parent chunk is the one of the parent cell, if any.
                 let expect = if depth == 0 { [0, 0, 0] } else { [cell[0] >> 1, cell[1] >> 1, cell[2] >> 1] };
-                parent = out[..first as usize]
-                    .iter()
-                    .rposition(|c| c.level + 1 == k && c.cell == expect)
-                    .map(|i| i as u32);
+                parent =
+                    out[..first as usize].iter().rposition(|c| c.level + 1 == k && c.cell == expect).map(|i| i as u32);
             }
             out.push(ChunkPlan { level: k, depth, cell, parent, faces, vertices: Vec::new() });
             i = j;
@@ -128,13 +122,11 @@ pub fn plan(h: &Hierarchy, shift: u32) -> Option<Vec<ChunkPlan>> {
         for v in (0..nv).filter(|&v| !used[v]) {
             let corner = lattice.vertex_corners[v];
             let cell = cell_of(corner).map(|x| x.min(last_cell));
-            let target = out[first as usize..].iter().position(|c| c.cell == cell);
-            let target = match target {
-                Some(t) => t,
-                None => {
-                    out.push(ChunkPlan { level: k, depth, cell, parent: None, faces: Vec::new(), vertices: Vec::new() });
-                    out.len() - 1 - first as usize
-                }
+            let target = if let Some(t) = out[first as usize..].iter().position(|c| c.cell == cell) {
+                t
+            } else {
+                out.push(ChunkPlan { level: k, depth, cell, parent: None, faces: Vec::new(), vertices: Vec::new() });
+                out.len() - 1 - first as usize
             };
             out[first as usize + target].vertices.push(v as u32);
         }
@@ -177,11 +169,30 @@ pub fn seams_distinct(h: &Hierarchy, plan: &[ChunkPlan], grid: &Grid) -> bool {
         }
         let Some(lattice) = &level.lattice else { return false };
         let mask = (1u32 << (k as u32 - depth)) - 1;
+        // A vertex in two chunks must lie on a cell boundary, or the merge would not find it.
+        let mut chunks_of = vec![0u8; level.mesh.vertices.len()];
+        for c in plan.iter().filter(|c| c.level as usize == k) {
+            for &v in &c.vertices {
+                chunks_of[v as usize] = chunks_of[v as usize].saturating_add(1);
+            }
+        }
+        let off = chunks_of
+            .iter()
+            .zip(&lattice.vertex_corners)
+            .filter(|&(&n, c)| n > 1 && c.iter().all(|&x| x & mask != 0))
+            .count();
+        if off > 0 {
+            return false;
+        }
         let mut seen = std::collections::HashSet::new();
         for (v, c) in lattice.vertex_corners.iter().enumerate() {
             if c.iter().any(|&x| x & mask == 0) {
                 let p = level.mesh.vertices.positions[v];
-                let key = if grid.exact { p.to_array().map(f64::to_bits) } else { grid.quantize(p).to_array().map(|x| x.to_bits()) };
+                let key = if grid.exact {
+                    p.to_array().map(f64::to_bits)
+                } else {
+                    grid.quantize(p).to_array().map(f64::to_bits)
+                };
                 if !seen.insert((*c, key)) {
                     return false;
                 }
@@ -204,6 +215,8 @@ pub struct EncodedChunk {
     pub split_bytes: (usize, usize),
     /// The block's `predictor` byte and `line_shift`.
     pub predictor: (u8, u32),
+    /// Per vertex of the decoded chunk: the level's vertex it is (`plan.vertices[..]`).
+    pub vertex_level: Vec<u32>,
 }
 
 /// Encodes every chunk of `plan` on `grid`, coarse to fine, each against its parent chunk's
@@ -215,7 +228,8 @@ pub fn encode_chunks(
     plan: &[ChunkPlan],
     mut each: impl FnMut(usize, &EncodedChunk) -> Result<(), EncodeError>,
 ) -> Result<(), EncodeError> {
-    let empty = PlainLevel { offsets: vec![0], slots: Some(Vec::new()), corners: Some(Vec::new()), ..PlainLevel::default() };
+    let empty =
+        PlainLevel { offsets: vec![0], slots: Some(Vec::new()), corners: Some(Vec::new()), ..PlainLevel::default() };
     // The encoded chunks of the level above, and per face of that level: (chunk, index in it).
     let mut above: Vec<Option<EncodedChunk>> = (0..plan.len()).map(|_| None).collect();
     let mut face_at: Vec<(u32, u32)> = Vec::new();
@@ -230,14 +244,7 @@ pub fn encode_chunks(
             let c = &plan[ci];
             let sub = sub_level(level, c, &mut local, &face_at);
             let parent_chunk = c.parent.and_then(|p| above[p as usize].as_ref());
-            let identity: Vec<u32>;
-            let parent_face_new = match parent_chunk {
-                Some(p) => &p.face_new[..],
-                None => {
-                    identity = Vec::new();
-                    &identity[..]
-                }
-            };
+            let parent_face_new = parent_chunk.map_or(&[][..], |p| &p.face_new[..]);
             let input = level_input(&sub, k as usize, grid, parent_face_new)?;
             let parent = if k == 0 { None } else { Some(parent_chunk.map_or(&empty, |e| &e.level)) };
             let enc = encode_level(k, &input, parent, grid.exact, grid.tied, grid.bits, version)?;
@@ -247,6 +254,7 @@ pub fn encode_chunks(
                 face_new: enc.face_new,
                 split_bytes: enc.split_bytes,
                 predictor: (enc.predictor, enc.line_shift),
+                vertex_level: enc.vertex_old.iter().map(|&v| c.vertices[v as usize]).collect(),
             };
             for (i, &f) in c.faces.iter().enumerate() {
                 next_face_at[f as usize] = (ci as u32, i as u32);
@@ -282,7 +290,9 @@ fn sub_level(level: &Level, c: &ChunkPlan, local: &mut [u32], face_at: &[(u32, u
         .faces
         .iter()
         .map(|&f| match level.origins[f as usize] {
-            FaceOrigin::Subface { parent, quadrant } => FaceOrigin::Subface { parent: face_at[parent as usize].1, quadrant },
+            FaceOrigin::Subface { parent, quadrant } => {
+                FaceOrigin::Subface { parent: face_at[parent as usize].1, quadrant }
+            }
             FaceOrigin::Created => FaceOrigin::Created,
         })
         .collect();

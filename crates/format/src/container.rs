@@ -145,7 +145,11 @@ pub fn to_bytes<T: Serialize>(v: &T) -> Vec<u8> {
     bincode::serde::encode_to_vec(v, config()).expect("plain structs always serialize")
 }
 
-pub(crate) fn from_bytes<T: serde::de::DeserializeOwned>(b: &[u8], offset: u64, what: &'static str) -> Result<T, DecodeError> {
+pub(crate) fn from_bytes<T: serde::de::DeserializeOwned>(
+    b: &[u8],
+    offset: u64,
+    what: &'static str,
+) -> Result<T, DecodeError> {
     match bincode::serde::decode_from_slice::<T, _>(b, config()) {
         Ok((v, used)) if used == b.len() => Ok(v),
         Ok((_, used)) => Err(DecodeError::Invalid {

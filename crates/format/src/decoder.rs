@@ -48,7 +48,8 @@ pub fn read_preamble(r: &mut impl Read, limits: &Limits) -> Result<Preamble, Dec
         }
     }
     let header = check_head(&head, got, limits)?;
-    let rest = read_vec(r, rest_len(&header), HEADER_SIZE as u64, "level table, chunk index, metadata and preamble checksum")?;
+    let rest =
+        read_vec(r, rest_len(&header), HEADER_SIZE as u64, "level table, chunk index, metadata and preamble checksum")?;
     container::parse_rest(header, &head, &rest, limits)
 }
 

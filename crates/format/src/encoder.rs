@@ -10,6 +10,7 @@ use xxhash_rust::xxh3::xxh3_64;
 use crate::container::{
     self, ENTRY_SIZE, FLAG_CUBE, FLAG_EXACT, FLAG_TIED, FileHeader, HEADER_SIZE, LevelEntry, MAGIC, Preamble,
 };
+use crate::decoder;
 use crate::error::EncodeError;
 use crate::level_decode::PlainLevel;
 use crate::level_encode::{self, InputLevel};
@@ -270,7 +271,12 @@ fn encode_inner(
 }
 
 /// The file header of `h` written with `opts` on `grid` (spec §3.1); `chunk_count` 0.
-fn file_header(h: &Hierarchy, opts: &EncodeOptions, grid: &Grid, level_count: usize) -> Result<FileHeader, EncodeError> {
+fn file_header(
+    h: &Hierarchy,
+    opts: &EncodeOptions,
+    grid: &Grid,
+    level_count: usize,
+) -> Result<FileHeader, EncodeError> {
     let metadata_bytes = container::to_bytes(&opts.metadata);
     let mut flags = 0;
     if h.cube.is_some() {
@@ -301,9 +307,67 @@ fn file_header(h: &Hierarchy, opts: &EncodeOptions, grid: &Grid, level_count: us
     Ok(header)
 }
 
+/// The version 5 form of [`crate::canonical`]: the decoded level of each level's chunks (spec
+/// §11.4), with the input positions.
+pub fn canonical_chunked(h: &Hierarchy, opts: &EncodeOptions) -> Result<Hierarchy, EncodeError> {
+    let (grid, plan) = chunk_plan(h, opts)?;
+    // Per level: its decoded chunks with their vertices' input indices and parents' face offsets.
+    let mut levels: Vec<Vec<(PlainLevel, Vec<u32>, u32)>> = (0..h.levels.len()).map(|_| Vec::new()).collect();
+    let mut face_at: Vec<u32> = vec![0; plan.len()];
+    let mut next_face = vec![0u32; h.levels.len()];
+    crate::chunks::encode_chunks(h, &grid, opts.version, &plan, |ci, enc| {
+        let k = plan[ci].level as usize;
+        face_at[ci] = next_face[k];
+        next_face[k] += enc.level.parents.len() as u32;
+        let parent_offset = plan[ci].parent.map_or(0, |p| face_at[p as usize]);
+        levels[k].push((enc.level.clone(), enc.vertex_level.clone(), parent_offset));
+        Ok(())
+    })?;
+    let levels = levels.into_iter().enumerate().map(|(k, parts)| merged_input_level(&h.levels[k], parts)).collect();
+    Ok(Hierarchy { levels, cube: h.cube })
+}
 
-/// A version 5 file (spec §11): every level in chunks, each chunk coded against its parent chunk.
-fn encode_chunked(h: &Hierarchy, opts: &EncodeOptions, with_stats: bool) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+/// A level's decoded chunks merged (spec §11.4), each vertex at its input position `level`'s:
+/// vertices are one when they are the same input vertex.
+fn merged_input_level(level: &Level, parts: Vec<(PlainLevel, Vec<u32>, u32)>) -> Level {
+    let mut seen = std::collections::HashMap::new();
+    let mut merged = PlainLevel { offsets: vec![0], ..PlainLevel::default() };
+    if parts.iter().all(|(p, ..)| p.corners.is_some()) {
+        merged.slots = Some(Vec::new());
+        merged.corners = Some(Vec::new());
+    }
+    let mut positions = Vec::new();
+    for (p, vertex_level, parent_offset) in parts {
+        let mut remap = Vec::with_capacity(vertex_level.len());
+        for (local, &v) in vertex_level.iter().enumerate() {
+            let next = positions.len() as u32;
+            let index = *seen.entry(v).or_insert(next);
+            if index == next {
+                positions.push(level.mesh.vertices.positions[v as usize]);
+                if let (Some(mc), Some(pc)) = (&mut merged.corners, &p.corners) {
+                    mc.push(pc[local]);
+                }
+            }
+            remap.push(index);
+        }
+        let base = *merged.offsets.last().expect("offsets");
+        merged.offsets.extend(p.offsets[1..].iter().map(|&o| base + o));
+        merged.indices.extend(p.indices.iter().map(|&v| remap[v as usize]));
+        merged.parents.extend(p.parents.iter().map(|&f| if f == NO_PARENT { f } else { f + parent_offset }));
+        merged.quadrants.extend(&p.quadrants);
+        if let (Some(ms), Some(ps)) = (&mut merged.slots, &p.slots) {
+            ms.extend(ps);
+        }
+    }
+    let mut out = decoder::to_level(&merged, DVec3::ZERO, 1.0);
+    out.mesh.vertices.positions = positions;
+    out
+}
+
+/// The grid and chunk plan of a version 5 file of `h` (spec §11): cells of depth
+/// `k - opts.chunk_shift`, or one chunk per level when the hierarchy has no lattice, the grid is
+/// not tied, or two seam vertices could not be told apart.
+fn chunk_plan(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Grid, Vec<crate::chunks::ChunkPlan>), EncodeError> {
     use crate::chunks;
     if h.levels.is_empty() {
         return Err(EncodeError::Empty);
@@ -314,13 +378,26 @@ fn encode_chunked(h: &Hierarchy, opts: &EncodeOptions, with_stats: bool) -> Resu
     h.check_links()?;
     check_version(opts)?;
     let grid = choose_grid(h, opts.quantization)?;
-    let plan = chunks::plan(h, opts.chunk_shift)
-        .filter(|p| (grid.exact || grid.tied) && chunks::seams_distinct(h, p, &grid))
+    // A coarser split where vertices off the cell boundaries are shared by chunks (spec §11.4).
+    let levels = h.levels.len() as u32;
+    let plan = (opts.chunk_shift..levels)
+        .filter(|_| grid.exact || grid.tied)
+        .find_map(|shift| chunks::plan(h, shift).filter(|p| chunks::seams_distinct(h, p, &grid)))
         .unwrap_or_else(|| chunks::whole_levels(h));
+    Ok((grid, plan))
+}
+
+/// A version 5 file (spec §11): every level in chunks, each chunk coded against its parent chunk.
+fn encode_chunked(
+    h: &Hierarchy,
+    opts: &EncodeOptions,
+    with_stats: bool,
+) -> Result<(Vec<u8>, Vec<LevelStats>), EncodeError> {
+    let (grid, plan) = chunk_plan(h, opts)?;
     let mut stored: Vec<Vec<u8>> = Vec::with_capacity(plan.len());
     let mut entries: Vec<container::ChunkEntry> = Vec::with_capacity(plan.len());
     let mut stats = vec![LevelStats::default(); h.levels.len()];
-    chunks::encode_chunks(h, &grid, opts.version, &plan, |ci, enc| {
+    crate::chunks::encode_chunks(h, &grid, opts.version, &plan, |ci, enc| {
         let c = &plan[ci];
         let frame = zstd::bulk::compress(&enc.payload, opts.zstd_level)?;
         let st = &mut stats[c.level as usize];
@@ -334,7 +411,8 @@ fn encode_chunked(h: &Hierarchy, opts: &EncodeOptions, with_stats: bool) -> Resu
         }
         let lv = &enc.level;
         let (lo, hi) = chunk_box(lv, &grid);
-        let too_big = || EncodeError::Unsupported { level: c.level as usize, reason: "a chunk larger than 4 GiB".into() };
+        let too_big =
+            || EncodeError::Unsupported { level: c.level as usize, reason: "a chunk larger than 4 GiB".into() };
         entries.push(container::ChunkEntry {
             offset: 0,
             checksum: xxh3_64(&frame),
@@ -410,13 +488,26 @@ fn chunk_box(lv: &PlainLevel, grid: &Grid) -> ([f32; 3], [f32; 3]) {
     if b.is_empty() {
         return ([0.0; 3], [0.0; 3]);
     }
+    // The neighbouring binary32 value towards minus (plus) infinity, for finite nonzero `f`.
+    let step = |f: f32, down: bool| {
+        let b = f.to_bits();
+        let away = (f > 0.0) != down;
+        if f == 0.0 {
+            let tiny = f32::from_bits(1);
+            if down { -tiny } else { tiny }
+        } else if away {
+            f32::from_bits(b + 1)
+        } else {
+            f32::from_bits(b - 1)
+        }
+    };
     let down = |x: f64| {
         let f = x as f32;
-        if f64::from(f) > x { f.next_down() } else { f }
+        if f64::from(f) > x { step(f, true) } else { f }
     };
     let up = |x: f64| {
         let f = x as f32;
-        if f64::from(f) < x { f.next_up() } else { f }
+        if f64::from(f) < x { step(f, false) } else { f }
     };
     (b.min.to_array().map(down), b.max.to_array().map(up))
 }

@@ -3,13 +3,17 @@
 //! reach the level decoder instead of stopping at a checksum.
 
 use crate::Limits;
-use crate::container::{self, ENTRY_SIZE, HEADER_SIZE, Preamble};
+use crate::container::Preamble;
 use crate::decoder::read_preamble;
 
-/// Decompressed payload of every level of a valid file.
+/// Decompressed payload of every level of a valid file (`None` for a version 5 file with a level
+/// of more than one chunk).
 pub fn payloads(bytes: &[u8]) -> Option<Vec<Vec<u8>>> {
     let mut r = bytes;
     let pre = read_preamble(&mut r, &Limits::default()).ok()?;
+    if !one_chunk_per_level(&pre) {
+        return None;
+    }
     pre.levels
         .iter()
         .map(|e| {
@@ -27,7 +31,10 @@ pub fn reseal(bytes: &[u8], payloads: &[Vec<u8>], counts: Option<&[(u32, u32, u3
     if payloads.len() != pre.levels.len() {
         return None;
     }
-    let mut offset = (HEADER_SIZE + ENTRY_SIZE * pre.levels.len()) as u64 + u64::from(pre.header.metadata_size) + 8;
+    if !one_chunk_per_level(&pre) {
+        return None;
+    }
+    let mut offset = pre.size();
     let mut stored_all = Vec::new();
     for (k, (e, p)) in pre.levels.iter_mut().zip(payloads).enumerate() {
         let stored = zstd::bulk::compress(p, 1).ok()?;
@@ -41,12 +48,30 @@ pub fn reseal(bytes: &[u8], payloads: &[Vec<u8>], counts: Option<&[(u32, u32, u3
         offset += stored.len() as u64;
         stored_all.push(stored);
     }
-    let _ = container::HEADER_SIZE;
+    sync_chunks(&mut pre);
     let mut out = pre.to_bytes();
     for s in stored_all {
         out.extend(s);
     }
     Some(out)
+}
+
+/// Whether every level is one frame: files before version 5, and version 5 files whose levels
+/// have one chunk each.
+pub(crate) fn one_chunk_per_level(pre: &Preamble) -> bool {
+    pre.chunks.is_empty() || pre.chunks.len() == pre.levels.len()
+}
+
+/// In a version 5 file of one chunk per level, each chunk entry made to match its level's entry.
+pub(crate) fn sync_chunks(pre: &mut Preamble) {
+    for c in &mut pre.chunks {
+        let e = &pre.levels[usize::from(c.level)];
+        c.offset = e.offset;
+        c.stored_size = u32::try_from(e.stored_size).unwrap_or(u32::MAX);
+        c.raw_size = u32::try_from(e.raw_size).unwrap_or(u32::MAX);
+        c.checksum = e.checksum;
+        (c.vertex_count, c.face_count, c.corner_count) = (e.vertex_count, e.face_count, e.corner_count);
+    }
 }
 
 /// Range decodes `data` as the coded bytes of a value block of `count` values (spec §6.9);

@@ -81,9 +81,9 @@
 //! * `placement` — Appendix A "Line placement": moving vertices onto their prediction lines.
 
 mod block;
+mod bytes;
 mod chunked;
 mod chunks;
-mod bytes;
 mod container;
 mod decoder;
 mod encoder;
@@ -106,8 +106,8 @@ use std::path::Path;
 
 use octowrap_mesh::{DVec3, Hierarchy};
 
-pub use chunks::CHUNK_SHIFT;
 pub use chunked::{ChunkInfo, ChunkedMrq, RangeSource, ReadStats, SeekSource};
+pub use chunks::CHUNK_SHIFT;
 pub use container::{CRS_KEY, FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo};
 pub use decoder::{decode, decode_bytes, read_info};
 pub use encoder::{encode, encode_to, encode_with_stats};
@@ -121,7 +121,7 @@ pub use placement::{LinePlacement, place_on_prediction_lines};
 /// encoder writes versions 2 to this ([`EncodeOptions::version`]).
 pub const FORMAT_VERSION: u16 = 5;
 /// The version [`EncodeOptions::default`] writes.
-pub const DEFAULT_VERSION: u16 = 4;
+pub const DEFAULT_VERSION: u16 = 5;
 /// The finest grid a file may use: `2^28` steps across the cube.
 pub const MAX_GRID_BITS: u32 = 28;
 
@@ -236,6 +236,9 @@ pub struct LevelStats {
 /// order [`decode`] returns when `h` is encoded with `opts` — with the input positions (not
 /// quantized). Encoding the result with `opts` gives the same bytes as encoding `h`.
 pub fn canonical(h: &Hierarchy, opts: &EncodeOptions) -> Result<Hierarchy, EncodeError> {
+    if opts.version >= container::CHUNKED_VERSION {
+        return encoder::canonical_chunked(h, opts);
+    }
     let mut out = Hierarchy { levels: Vec::with_capacity(h.levels.len()), cube: h.cube };
     encoder::encode_levels(h, opts, |enc| {
         let k = out.levels.len();

@@ -31,6 +31,9 @@ pub fn fix_preamble_checksum(bytes: &mut [u8]) -> bool {
 pub fn replace_stored(bytes: &[u8], k: usize, stored: &[u8], raw_size: u64) -> Option<Vec<u8>> {
     let mut r = bytes;
     let mut pre = read_preamble(&mut r, &Limits::default()).ok()?;
+    if !crate::fuzzing::one_chunk_per_level(&pre) {
+        return None;
+    }
     let mut levels: Vec<Vec<u8>> = pre
         .levels
         .iter()
@@ -45,6 +48,7 @@ pub fn replace_stored(bytes: &[u8], k: usize, stored: &[u8], raw_size: u64) -> O
         e.checksum = xxhash_rust::xxh3::xxh3_64(s);
         offset += s.len() as u64;
     }
+    crate::fuzzing::sync_chunks(&mut pre);
     let mut out = pre.to_bytes();
     for s in levels {
         out.extend(s);

@@ -374,19 +374,37 @@ fn invalid_v5_set() -> Vec<Invalid> {
     let mut b = base.clone();
     let p = get32(&b, entry(c3 + 1) + 24);
     put32(&mut b, entry(c3 + 1) + 24, if p as usize == c2 { p + 1 } else { c2 as u32 });
-    out.push(("v5_chunk_parent_cell.mrq", "§11.2", "invalid", "a chunk's parent chunk's cell does not hold its cell", sealed(b)));
+    out.push((
+        "v5_chunk_parent_cell.mrq",
+        "§11.2",
+        "invalid",
+        "a chunk's parent chunk's cell does not hold its cell",
+        sealed(b),
+    ));
     // Two level 3 chunks' cells swapped: the cells are not in increasing Morton order.
     let mut b = base.clone();
     let (x, y) = (entry(c3) + 32, entry(c3 + 1) + 32);
     let (cx, cy) = (b[x..x + 12].to_vec(), b[y..y + 12].to_vec());
     b[x..x + 12].copy_from_slice(&cy);
     b[y..y + 12].copy_from_slice(&cx);
-    out.push(("v5_chunk_morton_order.mrq", "§11.2", "invalid", "two chunks of level 3 listed out of Morton order", sealed(b)));
+    out.push((
+        "v5_chunk_morton_order.mrq",
+        "§11.2",
+        "invalid",
+        "two chunks of level 3 listed out of Morton order",
+        sealed(b),
+    ));
     // A chunk's offset one byte on.
     let mut b = base.clone();
     let o = u64::from_le_bytes(b[entry(c3 + 1)..entry(c3 + 1) + 8].try_into().unwrap());
     b[entry(c3 + 1)..entry(c3 + 1) + 8].copy_from_slice(&(o + 1).to_le_bytes());
-    out.push(("v5_chunk_offset_gap.mrq", "§11.2", "invalid", "a chunk does not start where the one before ends", sealed(b)));
+    out.push((
+        "v5_chunk_offset_gap.mrq",
+        "§11.2",
+        "invalid",
+        "a chunk does not start where the one before ends",
+        sealed(b),
+    ));
     // Level 2's cell depth 2 (at most 1 at level 2).
     let mut b = base.clone();
     put32(&mut b, 112 + 48 * 2 + 44, 2);
@@ -395,12 +413,24 @@ fn invalid_v5_set() -> Vec<Invalid> {
     let mut b = base.clone();
     let nv = get32(&b, 112 + 48 * 3 + 32);
     put32(&mut b, 112 + 48 * 3 + 32, nv - 1);
-    out.push(("v5_merged_vertex_count.mrq", "§11.4", "invalid", "level 3's chunks merge into one vertex more than the level table says", sealed(b)));
+    out.push((
+        "v5_merged_vertex_count.mrq",
+        "§11.4",
+        "invalid",
+        "level 3's chunks merge into one vertex more than the level table says",
+        sealed(b),
+    ));
     // A chunk's face count one more than its block holds (the level's sum no longer matches).
     let mut b = base.clone();
     let nf = get32(&b, entry(c3) + 48);
     put32(&mut b, entry(c3) + 48, nf + 1);
-    out.push(("v5_chunk_face_count.mrq", "§11.2", "invalid", "a chunk's face count does not add up to its level's", sealed(b)));
+    out.push((
+        "v5_chunk_face_count.mrq",
+        "§11.2",
+        "invalid",
+        "a chunk's face count does not add up to its level's",
+        sealed(b),
+    ));
     // More chunks than the strict limits allow.
     let mut b = base.clone();
     put32(&mut b, 108, 1 << 17);

@@ -1,0 +1,179 @@
+//! Version 5 chunks (spec §11): chunked files decode to their canonical hierarchy, parts of a
+//! level decode from their own bytes and their ancestors' through a byte-range source, and the
+//! result does not depend on the thread count.
+
+use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, shuffle};
+use octowrap_format::{
+    ChunkedMrq, DecodeOptions, EncodeOptions, Limits, Quantization, RangeSource, canonical, decode, encode, read_info,
+};
+use octowrap_mesh::{Aabb, DVec3, Hierarchy, Mesh};
+
+/// The synthetic edits without joins: a corner joined to a vertex off its cell's boundary keeps
+/// the levels it touches from splitting (see `joined_vertices_off_the_boundaries_coarsen_the_cells`).
+const NO_JOINS: Edits =
+    Edits { remove: 0.05, inner: 0.1, create: 0.05, split: 0.01, join: 0.0, noise: 0.2, shuffle: true };
+
+fn v5(q: Quantization, shift: u32) -> EncodeOptions {
+    let mut o = EncodeOptions::with_quantization(q);
+    o.version = 5;
+    o.chunk_shift = shift;
+    o
+}
+
+/// A byte-range source over a buffer that counts requests and bytes.
+struct Counting<'a> {
+    bytes: &'a [u8],
+    requests: u64,
+    read: u64,
+}
+
+impl RangeSource for Counting<'_> {
+    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        self.requests += 1;
+        self.read += buf.len() as u64;
+        let mut b = self.bytes;
+        b.read_range(offset, buf)
+    }
+}
+
+/// Faces of `m` as sorted vertex position bit patterns, sorted: a mesh up to vertex and face order.
+fn faces(m: &Mesh) -> Vec<Vec<[u64; 3]>> {
+    let p = &m.vertices.positions;
+    let mut out: Vec<Vec<[u64; 3]>> =
+        m.faces.iter().map(|f| f.iter().map(|&v| p[v as usize].to_array().map(f64::to_bits)).collect()).collect();
+    out.sort();
+    out
+}
+
+/// `h` with positions moved to the grid points the file holds.
+fn quantized(h: &Hierarchy, step: f64, origin: DVec3) -> Hierarchy {
+    let mut h = h.clone();
+    for l in &mut h.levels {
+        for p in &mut l.mesh.vertices.positions {
+            *p = origin + ((*p - origin) / step).round() * step;
+        }
+    }
+    h
+}
+
+#[test]
+fn chunked_files_decode_to_their_canonical_hierarchy() {
+    for (seed, shift, q) in
+        [(1, 1, Quantization::Bits(12)), (2, 2, Quantization::Bits(14)), (3, 1, Quantization::Exact)]
+    {
+        let mut h = cube_hierarchy(5, NO_JOINS, seed);
+        shuffle(&mut h, &mut Rng::new(seed));
+        let opts = v5(q, shift);
+        let bytes = encode(&h, &opts).unwrap();
+        let info = read_info(&bytes[..], &Limits::default()).unwrap();
+        assert_eq!(info.version, 5);
+        // The shift splits the finer levels into several chunks.
+        assert!(info.levels[4].chunk_count > 4, "seed {seed}: {} chunks at level 4", info.levels[4].chunk_count);
+        assert_eq!(info.levels[4].cell_depth, 4 - shift);
+        let file = decode(&bytes[..], &DecodeOptions::default()).unwrap();
+        let want = canonical(&h, &opts).unwrap();
+        let want = match (q, &info.grid) {
+            (Quantization::Exact, _) => want,
+            (_, Some(g)) => quantized(&want, g.step, DVec3::from_array(g.origin)),
+            _ => unreachable!("a grid file has a grid"),
+        };
+        assert_eq!(file.hierarchy, want, "seed {seed}");
+        file.hierarchy.check_links().unwrap();
+        // The same levels as the unchunked file, up to order.
+        let mut v4 = opts.clone();
+        v4.version = 4;
+        let whole = decode(&encode(&h, &v4).unwrap()[..], &DecodeOptions::default()).unwrap();
+        for (a, b) in whole.hierarchy.levels.iter().zip(&file.hierarchy.levels) {
+            assert_eq!(faces(&a.mesh), faces(&b.mesh), "seed {seed}");
+        }
+    }
+}
+
+#[test]
+fn a_region_reads_only_its_chunks_and_their_ancestors() {
+    let h = cube_hierarchy(6, NO_JOINS, 5);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
+    let full = decode(&bytes[..], &DecodeOptions::default()).unwrap();
+    let finest = 5;
+    let mut src = Counting { bytes: &bytes, requests: 0, read: 0 };
+    let mut reader = ChunkedMrq::open(&mut src, &Limits::default()).unwrap();
+    // The preamble: two requests.
+    assert_eq!(reader.stats().requests, 2);
+    let preamble = reader.stats().bytes;
+    let corner = Aabb { min: DVec3::splat(-0.1), max: DVec3::splat(0.2) };
+    let part = reader.extract(finest, Some(corner)).unwrap();
+    let stats = reader.stats();
+    drop(reader);
+    assert_eq!((src.requests, src.read), (stats.requests, stats.bytes));
+    let ids: Vec<_> = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().chunks_in(finest, Some(corner));
+    let all = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().chunks_in(finest, None);
+    assert!(!ids.is_empty() && ids.len() * 4 < all.len(), "{} of {} chunks", ids.len(), all.len());
+    assert!(stats.bytes - preamble < (bytes.len() as u64 - preamble) / 3, "read {} of {}", stats.bytes, bytes.len());
+    // Every face of the full level with a vertex in the region is in the part, and the part's
+    // faces are faces of the full level.
+    let level = &full.hierarchy.levels[finest as usize].mesh;
+    let inside = |p: DVec3| (0..3).all(|a| p[a] >= corner.min[a] && p[a] <= corner.max[a]);
+    let want: Vec<_> = faces(level)
+        .into_iter()
+        .filter(|f| f.iter().any(|v| inside(DVec3::from_array(v.map(f64::from_bits)))))
+        .collect();
+    let got = faces(&part);
+    let all_faces = faces(level);
+    assert!(got.iter().all(|f| all_faces.binary_search(f).is_ok()));
+    assert!(want.iter().all(|f| got.binary_search(f).is_ok()), "a face in the region is missing");
+    // The whole level through the reader equals the full decode's.
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    assert_eq!(faces(&reader.extract(finest, None).unwrap()), all_faces);
+}
+
+#[test]
+fn decoding_does_not_depend_on_the_thread_count() {
+    let h = cube_hierarchy(6, NO_JOINS, 8);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
+    let decode_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| decode(&bytes[..], &DecodeOptions::default()).unwrap().hierarchy)
+    };
+    assert_eq!(decode_on(1), decode_on(2));
+    let encode_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| encode(&h, &v5(Quantization::Bits(14), 2)).unwrap())
+    };
+    assert_eq!(encode_on(1), bytes);
+    assert_eq!(encode_on(2), bytes);
+}
+
+#[test]
+fn a_chunk_with_a_bad_checksum_fails_where_it_lies() {
+    let h = cube_hierarchy(5, NO_JOINS, 4);
+    let mut bytes = encode(&h, &v5(Quantization::Bits(12), 1)).unwrap();
+    let reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let (i, c) = chunks.iter().enumerate().rfind(|(_, c)| c.level == 4).unwrap();
+    bytes[c.offset as usize + 5] ^= 1;
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    match reader.decode_chunks(&[i as u32]) {
+        Err(octowrap_format::DecodeError::ChecksumMismatch { place, offset, .. }) => {
+            assert_eq!(place, octowrap_format::Where::Chunk(4, i as u32));
+            assert_eq!(offset, c.offset);
+        }
+        other => panic!("expected a checksum error, got {:?}", other.map(|m| m.len())),
+    }
+    // The chunks before it still decode.
+    assert!(reader.decode_chunks(&[0, 1]).is_ok());
+}
+
+#[test]
+fn joined_vertices_off_the_boundaries_coarsen_the_cells() {
+    // Joins make corners use vertices of other voxels, some of them across a cell boundary: the
+    // encoder then splits the levels into fewer, larger cells (or none), and the file still
+    // decodes to its canonical hierarchy.
+    let h = cube_hierarchy(5, Edits { join: 0.02, ..NO_JOINS }, 6);
+    let opts = v5(Quantization::Bits(12), 1);
+    let bytes = encode(&h, &opts).unwrap();
+    let info = read_info(&bytes[..], &Limits::default()).unwrap();
+    assert!(info.levels[4].cell_depth < 3, "cell depth {}", info.levels[4].cell_depth);
+    let file = decode(&bytes[..], &DecodeOptions::default()).unwrap();
+    let g = info.grid.unwrap();
+    assert_eq!(file.hierarchy, quantized(&canonical(&h, &opts).unwrap(), g.step, DVec3::from_array(g.origin)));
+}
