@@ -86,6 +86,7 @@
 //! Hausdorff and RMS distances ([`metrics::distance`]; BVH and exact point-triangle distance),
 //! defined precisely in the module docs.
 
+pub mod chunks;
 mod collapse;
 mod cut;
 mod decimate;

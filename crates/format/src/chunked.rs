@@ -29,7 +29,7 @@ pub fn parse_index(
     let n = bytes.len() / CHUNK_ENTRY_SIZE;
     let mut out: Vec<ChunkEntry> = Vec::with_capacity(n);
     // Per level: (chunks, next offset, stored, raw, faces, corners, most vertices, vertex sum).
-    let mut sums = vec![(0u64, 0u64, 0u64, 0u64, 0u64, 0u64, 0u64, 0u64); levels.len()];
+    let mut sums: Vec<LevelSums> = vec![(0, 0, 0, 0, 0, 0, 0, 0); levels.len()];
     for (k, e) in levels.iter().enumerate() {
         sums[k].1 = e.offset;
     }
@@ -89,24 +89,7 @@ pub fn parse_index(
                 ));
             }
         }
-        let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
-            if value > limit {
-                Err(DecodeError::LimitExceeded {
-                    place: Where::Preamble,
-                    offset: (at + off) as u64,
-                    what,
-                    value,
-                    limit,
-                })
-            } else {
-                Ok(())
-            }
-        };
-        limit(8, "chunk stored_size", c.stored_size.into(), limits.max_level_bytes)?;
-        limit(12, "chunk raw_size", c.raw_size.into(), limits.max_level_bytes)?;
-        limit(44, "chunk vertex_count", c.vertex_count.into(), limits.max_vertices.into())?;
-        limit(48, "chunk face_count", c.face_count.into(), limits.max_faces.into())?;
-        limit(52, "chunk corner_count", c.corner_count.into(), limits.max_corners.into())?;
+        check_limits(&c, at, limits)?;
         if !c.bbox_min.iter().chain(&c.bbox_max).chain([&c.geometric_error]).all(|x| x.is_finite()) {
             return Err(bad(56, "bounding box or geometric error is not finite".into()));
         }
@@ -130,7 +113,33 @@ pub fn parse_index(
         s.7 += u64::from(c.vertex_count);
         out.push(c);
     }
-    for (k, (e, s)) in levels.iter().zip(&sums).enumerate() {
+    check_sums(levels, &sums)?;
+    Ok(out)
+}
+
+/// A chunk's sizes and counts against the decoder's limits (spec §7.2); `at` is its entry's offset.
+fn check_limits(c: &ChunkEntry, at: usize, limits: &Limits) -> Result<(), DecodeError> {
+    let limit = |off: usize, what: &'static str, value: u64, limit: u64| {
+        if value > limit {
+            Err(DecodeError::LimitExceeded { place: Where::Preamble, offset: (at + off) as u64, what, value, limit })
+        } else {
+            Ok(())
+        }
+    };
+    limit(8, "chunk stored_size", c.stored_size.into(), limits.max_level_bytes)?;
+    limit(12, "chunk raw_size", c.raw_size.into(), limits.max_level_bytes)?;
+    limit(44, "chunk vertex_count", c.vertex_count.into(), limits.max_vertices.into())?;
+    limit(48, "chunk face_count", c.face_count.into(), limits.max_faces.into())?;
+    limit(52, "chunk corner_count", c.corner_count.into(), limits.max_corners.into())?;
+    Ok(())
+}
+
+/// Per level: (chunks, next offset, stored, raw, faces, corners, most vertices, vertex sum).
+type LevelSums = (u64, u64, u64, u64, u64, u64, u64, u64);
+
+/// The chunk index's sums against the level table (spec §11.2).
+fn check_sums(levels: &[LevelEntry], sums: &[LevelSums]) -> Result<(), DecodeError> {
+    for (k, (e, s)) in levels.iter().zip(sums).enumerate() {
         let at = (HEADER_SIZE + k * ENTRY_SIZE) as u64;
         let bad = |reason: String| DecodeError::Invalid {
             place: Where::Preamble,
@@ -149,7 +158,7 @@ pub fn parse_index(
             return Err(bad(format!("vertex_count {nv} is not between {} and {} (its chunks' vertices)", s.6, s.7)));
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The chunks of a version 1-4 file: one per level, each refining the one before.
@@ -497,6 +506,8 @@ pub struct ChunkInfo {
     pub level: u32,
     /// Cell at the level's cell depth.
     pub cell: [u32; 3],
+    /// The level's cell depth (spec §11.1).
+    pub cell_depth: u32,
     /// The chunk it refines.
     pub parent: Option<u32>,
     /// File offset of its stored bytes.
@@ -515,11 +526,12 @@ pub struct ChunkInfo {
     pub geometric_error: Option<f32>,
 }
 
-impl From<&ChunkEntry> for ChunkInfo {
-    fn from(c: &ChunkEntry) -> Self {
+impl ChunkInfo {
+    fn new(c: &ChunkEntry, cell_depth: u32) -> Self {
         Self {
             level: c.level.into(),
             cell: c.cell,
+            cell_depth,
             parent: (c.parent != NO_CHUNK).then_some(c.parent),
             offset: c.offset,
             stored_size: c.stored_size,
@@ -586,7 +598,11 @@ impl<S: RangeSource> ChunkedMrq<S> {
 
     /// Every chunk, in index order (level by level).
     pub fn chunks(&self) -> Vec<ChunkInfo> {
-        self.chunks.iter().map(ChunkInfo::from).collect()
+        let chunked = self.pre.header.version >= CHUNKED_VERSION;
+        self.chunks
+            .iter()
+            .map(|c| ChunkInfo::new(c, if chunked { self.pre.levels[usize::from(c.level)].cell_depth } else { 0 }))
+            .collect()
     }
 
     /// Range requests and bytes so far.
@@ -698,4 +714,27 @@ impl<S: RangeSource> ChunkedMrq<S> {
         mesh.faces = faces;
         Ok(mesh)
     }
+}
+
+/// Stores `errors` (one per chunk, in index order) as the chunks' `geometric_error` in the
+/// version 5 file `bytes` and reseals its preamble checksum (spec §3.4, §11.2).
+pub fn set_chunk_errors(bytes: &mut [u8], errors: &[f32]) -> Result<(), DecodeError> {
+    let pre = crate::decoder::read_preamble(&mut &bytes[..], &Limits::default())?;
+    let bad =
+        |reason: String| DecodeError::Invalid { place: Where::Preamble, offset: 108, what: "chunk index", reason };
+    if pre.chunks.len() != errors.len() {
+        return Err(bad(format!("{} errors for {} chunks", errors.len(), pre.chunks.len())));
+    }
+    if let Some(e) = errors.iter().find(|e| !e.is_finite()) {
+        return Err(bad(format!("geometric error {e} is not finite")));
+    }
+    let start = HEADER_SIZE + ENTRY_SIZE * pre.levels.len();
+    for (i, e) in errors.iter().enumerate() {
+        let at = start + i * CHUNK_ENTRY_SIZE + 80;
+        bytes[at..at + 4].copy_from_slice(&e.to_le_bytes());
+    }
+    let end = usize::try_from(pre.size()).map_err(|_| bad("preamble too large".into()))? - 8;
+    let sum = xxh3_64(&bytes[..end]);
+    bytes[end..end + 8].copy_from_slice(&sum.to_le_bytes());
+    Ok(())
 }

@@ -61,6 +61,26 @@ impl Mesh {
         self.vertices.len()
     }
 
+    /// The faces `faces` of this mesh (indices in range) as a mesh of their own: its vertices
+    /// are those the faces use, in order of first use, positions only.
+    #[must_use]
+    pub fn subset(&self, faces: &[u32]) -> Self {
+        let mut map = vec![u32::MAX; self.vertex_count()];
+        let mut out = Self::default();
+        let mut list = FaceList::with_capacity(faces.len(), 4 * faces.len());
+        for &f in faces {
+            list.push_iter(self.faces.face(f as usize).iter().map(|&v| {
+                if map[v as usize] == u32::MAX {
+                    map[v as usize] = out.vertices.positions.len() as u32;
+                    out.vertices.positions.push(self.vertices.positions[v as usize]);
+                }
+                map[v as usize]
+            }));
+        }
+        out.faces = list;
+        out
+    }
+
     /// The faces as triangles, deterministically: quads split along their shorter diagonal (the
     /// `0-2` diagonal on a tie), other polygons fanned from their first corner, triangles as they
     /// are; faces of fewer than 3 vertices give none. Out-of-range indices are passed through

@@ -139,11 +139,11 @@ impl RawHierarchy {
         let h = &self.hierarchy;
         let written = py.detach(|| {
             if keep || placed_already {
-                octowrap_format::write_path(&path, h, &opts)
+                octowrap_decimate::chunks::write_measured(&path, h, &opts)
             } else {
                 let mut placed = h.clone();
                 octowrap_format::place_on_prediction_lines(&mut placed, &opts)?;
-                octowrap_format::write_path(&path, &placed, &opts)
+                octowrap_decimate::chunks::write_measured(&path, &placed, &opts)
             }
         });
         written.map_err(|e| errors::encode_error(&e, &path))

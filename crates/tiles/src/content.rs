@@ -108,24 +108,6 @@ impl<'a> LevelGeometry<'a> {
     }
 }
 
-/// The faces `faces` of `mesh` as a mesh of their own (positions only, same axes).
-pub(crate) fn subset(mesh: &Mesh, faces: &[u32]) -> Mesh {
-    let mut map = vec![u32::MAX; mesh.vertex_count()];
-    let mut out = Mesh::default();
-    let mut list = FaceList::with_capacity(faces.len(), 4 * faces.len());
-    for &f in faces {
-        list.push_iter(mesh.faces.face(f as usize).iter().map(|&v| {
-            if map[v as usize] == u32::MAX {
-                map[v as usize] = out.vertices.positions.len() as u32;
-                out.vertices.positions.push(mesh.vertices.positions[v as usize]);
-            }
-            map[v as usize]
-        }));
-    }
-    out.faces = list;
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -154,6 +136,6 @@ mod tests {
         assert!(p.contains(&DVec3::new(1.0, 0.0, -1.0)), "{p:?}");
         assert!(p.contains(&DVec3::new(2.0, -0.5, -1.0)), "{p:?}");
         assert!(!p.contains(&DVec3::new(1.0, -0.5, -1.0)), "a border vertex moved: {p:?}");
-        assert_eq!(subset(&m, &[2]).vertex_count(), 4);
+        assert_eq!(m.subset(&[2]).vertex_count(), 4);
     }
 }

@@ -6,7 +6,7 @@ use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::Hierarchy;
 use rayon::prelude::*;
 
-use crate::content::{LevelGeometry, subset};
+use crate::content::LevelGeometry;
 use crate::georef::{Frame, Georeference};
 use crate::implicit;
 use crate::partition::{Cell, Partition, TileTree};
@@ -156,8 +156,8 @@ fn write_level(h: &Hierarchy, k: usize, tree: &TileTree, out: &Out<'_>) -> Resul
                 return 0.0;
             }
             let d = octowrap_decimate::metrics::certified_hausdorff(
-                &subset(&level.mesh, &node.faces),
-                &subset(finest_mesh, &tree.regions[i]),
+                &level.mesh.subset(&node.faces),
+                &finest_mesh.subset(&tree.regions[i]),
             );
             if d.upper.is_finite() { d.upper } else { 0.0 }
         })

@@ -48,6 +48,16 @@ pub struct MrqWriteArgs {
     /// MRQ output: the length unit to record (for example m or mm).
     #[arg(long, value_name = "UNIT")]
     pub units: Option<String>,
+    /// MRQ output: the format version to write, 2 to 5 [default: 5]. Version 5 splits every level
+    /// into chunks by octree cell, so that readers can fetch one part of a level (`extract
+    /// --region`, view-dependent clients); version 4 stores each level whole.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(2..=i64::from(octowrap_format::FORMAT_VERSION)))]
+    pub format_version: Option<u16>,
+    /// MRQ output, version 5: level K's chunk cells are 2^S voxels of the level wide, so a chunk
+    /// holds up to about 4^S faces [default: 7]. Smaller chunks let a reader fetch less of a large
+    /// level, and cost more bytes (their shared border vertices are stored in each chunk).
+    #[arg(long, value_name = "S", value_parser = clap::value_parser!(u32).range(1..=20))]
+    pub chunk_shift: Option<u32>,
 }
 
 fn parse_step(s: &str) -> anyhow::Result<f64> {
@@ -71,6 +81,12 @@ impl MrqWriteArgs {
         if let Some(level) = self.zstd_level {
             o.zstd_level = level;
         }
+        if let Some(v) = self.format_version {
+            o.version = v;
+        }
+        if let Some(shift) = self.chunk_shift {
+            o.chunk_shift = shift;
+        }
         o.metadata.units = self.units.clone().unwrap_or_default();
         o.metadata.source = source.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         o.metadata.generator = format!("octowrap {}", env!("CARGO_PKG_VERSION"));
@@ -86,6 +102,8 @@ impl MrqWriteArgs {
             ("--exact", self.exact),
             ("--zstd-level", self.zstd_level.is_some()),
             ("--units", self.units.is_some()),
+            ("--format-version", self.format_version.is_some()),
+            ("--chunk-shift", self.chunk_shift.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|g| g.1) {
             bail!(
@@ -108,7 +126,7 @@ pub fn write(path: &Path, h: &Hierarchy, opts: &EncodeOptions, clobber: ClobberA
         names.dedup();
         say!("note: MRQ stores positions and connectivity only: dropping {}", names.join(", "));
     }
-    let bytes = octowrap_format::encode(h, opts).context("encoding the mesh as MRQ")?;
+    let bytes = octowrap_decimate::chunks::encode_measured(h, opts).context("encoding the mesh as MRQ")?;
     if path == Path::new("-") {
         return Ok(crate::out::stdout(|w| w.write_all(&bytes))?);
     }
@@ -155,6 +173,84 @@ pub fn read_level(path: &Path, level: Option<u32>) -> anyhow::Result<Mesh> {
         say!("note: level {k} of {n} ({} faces, {} vertices)", l.mesh.faces.len(), l.mesh.vertex_count());
     }
     Ok(l.mesh)
+}
+
+/// The part of level `level` (the finest when `None`) inside `region` (all of it for `None`),
+/// reading only the chunks it needs through range reads of the file (`.gz` files and standard
+/// input are read whole first); `stats` prints what was read.
+pub fn read_region(
+    path: &Path,
+    level: Option<u32>,
+    region: Option<octowrap_mesh::Aabb>,
+    stats: bool,
+) -> anyhow::Result<Mesh> {
+    let limits = crate::limits::format_limits();
+    let ctx = || format!("reading {}", path.display());
+    let (mesh, st, chunks, k, n) = if path == Path::new("-") || octowrap_fsutil::is_gz(path) {
+        let mut bytes = Vec::new();
+        if path == Path::new("-") {
+            std::io::stdin().lock().read_to_end(&mut bytes)?;
+        } else {
+            open(path)?.read_to_end(&mut bytes)?;
+        }
+        region_of(&bytes[..], level, region, &limits).with_context(ctx)?
+    } else {
+        crate::limits::check_input_size(path)?;
+        let f = std::fs::File::open(path).with_context(ctx)?;
+        region_of(octowrap_format::SeekSource(std::io::BufReader::new(f)), level, region, &limits).with_context(ctx)?
+    };
+    if stats {
+        say!(
+            "read {} bytes in {} range requests; level {k} of {n}: {} chunks, {} faces, {} vertices",
+            st.bytes,
+            st.requests,
+            chunks,
+            mesh.faces.len(),
+            mesh.vertex_count()
+        );
+    }
+    Ok(mesh)
+}
+
+/// [`read_region`] over a byte-range source: the mesh, what was read, the chunks of the level
+/// decoded, the level and the number of levels.
+fn region_of<S: octowrap_format::RangeSource>(
+    source: S,
+    level: Option<u32>,
+    region: Option<octowrap_mesh::Aabb>,
+    limits: &octowrap_format::Limits,
+) -> Result<(Mesh, octowrap_format::ReadStats, usize, u32, u32), octowrap_format::DecodeError> {
+    let mut r = octowrap_format::ChunkedMrq::open(source, limits)?;
+    let n = r.info().levels.len() as u32;
+    let k = level.unwrap_or(n.saturating_sub(1));
+    let chunks = r.chunks_in(k, region).len();
+    let mesh = r.extract(k, region)?;
+    let mesh = match region {
+        Some(b) => clip(&mesh, b),
+        None => mesh,
+    };
+    Ok((mesh, r.stats(), chunks, k, n))
+}
+
+/// The faces of `mesh` with a vertex inside `b`, and the vertices they use (in their order).
+fn clip(mesh: &Mesh, b: octowrap_mesh::Aabb) -> Mesh {
+    let p = &mesh.vertices.positions;
+    let inside = |v: u32| (0..3).all(|a| p[v as usize][a] >= b.min[a] && p[v as usize][a] <= b.max[a]);
+    let mut new = vec![u32::MAX; p.len()];
+    let mut out = Mesh::default();
+    let mut corners = Vec::new();
+    for f in mesh.faces.iter().filter(|f| f.iter().any(|&v| inside(v))) {
+        corners.clear();
+        for &v in f {
+            if new[v as usize] == u32::MAX {
+                new[v as usize] = out.vertices.positions.len() as u32;
+                out.vertices.positions.push(p[v as usize]);
+            }
+            corners.push(new[v as usize]);
+        }
+        out.faces.push(&corners);
+    }
+    out
 }
 
 /// What `info` reports about an MRQ file.
@@ -213,10 +309,24 @@ impl Report {
         if !m.entries.iter().any(|(k, _)| k == octowrap_format::CRS_KEY) {
             writeln!(w, "  frame       local (no CRS): a tileset of it is not placed on the globe")?;
         }
-        writeln!(w, "  level     vertices        faces        bytes   bits/vertex")?;
+        let chunked = i.version >= 5;
+        if chunked {
+            let n: u32 = i.levels.iter().map(|l| l.chunk_count).sum();
+            writeln!(
+                w,
+                "  chunks      {n} (a level's chunks are the cells of its cell depth; `extract --region` reads only those it needs)"
+            )?;
+            writeln!(w, "  level     vertices        faces        bytes   bits/vertex   chunks  cell depth")?;
+        } else {
+            writeln!(w, "  level     vertices        faces        bytes   bits/vertex")?;
+        }
         for (k, l) in i.levels.iter().enumerate() {
             let bpv = if l.vertex_count > 0 { l.stored_size as f64 * 8.0 / f64::from(l.vertex_count) } else { 0.0 };
-            writeln!(w, "  {k:>5} {:>12} {:>12} {:>12} {:>13.2}", l.vertex_count, l.face_count, l.stored_size, bpv)?;
+            write!(w, "  {k:>5} {:>12} {:>12} {:>12} {:>13.2}", l.vertex_count, l.face_count, l.stored_size, bpv)?;
+            if chunked {
+                write!(w, " {:>8} {:>11}", l.chunk_count, l.cell_depth)?;
+            }
+            writeln!(w)?;
         }
         Ok(())
     }
