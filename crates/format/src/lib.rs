@@ -11,6 +11,14 @@
 //! metadata first, so a reader holding the first bytes knows where every level lies; each level is
 //! one zstd frame. [`decode`] reads levels `0..=k` from any [`Read`] and stops there.
 //!
+//! In version 5 (the default) every level is split into **chunks** (spec §11): the faces of one
+//! octree cell, coded against the chunk of the level above that they refine, each its own zstd
+//! frame with a checksum, listed in a chunk index in the preamble (byte range, counts, bounding
+//! box, geometric error). [`ChunkedMrq`] reads the preamble in two range requests and then only the
+//! chunks asked for and their ancestors, over any [`RangeSource`] (a file through [`SeekSource`],
+//! a buffer, an HTTP client); the chunks of a level decode in parallel, with the same output
+//! whatever the thread count.
+//!
 //! ```
 //! use octowrap_format::{decode, encode, DecodeOptions, EncodeOptions};
 //! use octowrap_mesh::{DVec3, FaceList, Hierarchy, Mesh};
@@ -79,6 +87,8 @@
 //! * `bytes` — §1 Conventions: varints, zigzag, byte planes, the bounds-checked reader.
 //! * `limits`, `error` — §7.2 Limits and §7.3 Errors.
 //! * `placement` — Appendix A "Line placement": moving vertices onto their prediction lines.
+//! * `chunks`, `chunked` — §11 Chunks: the encoder's plan of cells and chunks; the chunk index,
+//!   the parallel decode and merge of a level's chunks, and [`ChunkedMrq`].
 
 mod block;
 mod bytes;
