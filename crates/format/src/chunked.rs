@@ -245,6 +245,12 @@ struct ChunkBuffers {
     level: level_decode::Scratch,
 }
 
+thread_local! {
+    /// Each thread's chunk buffers, kept from chunk to chunk (a zstd context and the level
+    /// decoder's scratch are costly to make afresh for chunks of a few thousand faces).
+    static CHUNK_BUFFERS: std::cell::RefCell<ChunkBuffers> = std::cell::RefCell::new(ChunkBuffers::default());
+}
+
 /// Checks and decodes chunk `c` (index `ci`) from its stored bytes against its parent chunk.
 fn decode_chunk(
     ci: u32,
@@ -311,10 +317,21 @@ fn decode_level_chunks<'a>(
         }
         decode_chunk(ci, c, stored(ci), parent, gi, buffers)
     };
+    let with_buffers = |ci: &u32| {
+        CHUNK_BUFFERS.with(|b| {
+            let mut b = b.borrow_mut();
+            let out = one(&mut b, ci);
+            // Kept only up to 64 MiB, as the whole-level decoder keeps its buffers.
+            if b.payload.capacity() + b.level.capacity_bytes() > 64 << 20 {
+                *b = ChunkBuffers::default();
+            }
+            out
+        })
+    };
     if todo.len() == 1 {
-        return Ok(vec![one(&mut ChunkBuffers::default(), &todo[0])?]);
+        return Ok(vec![with_buffers(&todo[0])?]);
     }
-    todo.par_iter().map_init(ChunkBuffers::default, one).collect()
+    todo.par_iter().map(with_buffers).collect()
 }
 
 /// The identity of a vertex across a level's chunks (spec §11.4): lattice corner and position.
@@ -336,16 +353,44 @@ pub fn merge_chunks(
         one.rotation_hints = Vec::new();
         return check_count(k, one, expect_vertices);
     }
-    let mut out = PlainLevel { offsets: vec![0], ..PlainLevel::default() };
+    merge_parts(k, &parts, parent_face_offset, cell_shift, expect_vertices)
+}
+
+/// [`merge_chunks`] of borrowed chunks.
+fn merge_parts(
+    k: u32,
+    parts: &[PlainLevel],
+    parent_face_offset: &[u32],
+    cell_shift: u32,
+    expect_vertices: Option<u32>,
+) -> Result<PlainLevel, DecodeError> {
+    let (nv, nf, nc) = parts.iter().fold((0, 0, 0), |(v, f, c), p| {
+        (v + p.q.len().max(p.exact.len()), f + p.parents.len(), c + p.indices.len())
+    });
+    let mut out = PlainLevel {
+        offsets: Vec::with_capacity(nf + 1),
+        indices: Vec::with_capacity(nc),
+        parents: Vec::with_capacity(nf),
+        quadrants: Vec::with_capacity(nf),
+        ..PlainLevel::default()
+    };
+    out.offsets.push(0);
+    let grid = parts.iter().any(|p| !p.q.is_empty());
+    if grid {
+        out.q.reserve(nv);
+    } else {
+        out.exact.reserve(nv);
+    }
     let lattice = parts.iter().all(|p| p.corners.is_some());
     if lattice {
-        out.slots = Some(Vec::new());
-        out.corners = Some(Vec::new());
+        out.slots = Some(Vec::with_capacity(nf));
+        out.corners = Some(Vec::with_capacity(nv));
     }
     let mask = (1u32 << cell_shift) - 1;
+    // The standard hasher is keyed at random: a file cannot choose keys that collide.
     let mut seen: HashMap<VertexKey, u32> = HashMap::new();
     let mut remap = Vec::new();
-    for (i, p) in parts.into_iter().enumerate() {
+    for (i, p) in parts.iter().enumerate() {
         remap.clear();
         let nv = p.q.len().max(p.exact.len());
         for v in 0..nv {
@@ -436,7 +481,11 @@ pub fn decode_whole_level(
         parents.0.clear();
         return merge_chunks(k, parts, &offsets, cell_shift, Some(e.vertex_count));
     }
-    let merged = merge_chunks(k, parts.clone(), &offsets, cell_shift, Some(e.vertex_count))?;
+    let merged = if parts.len() == 1 && offsets[0] == 0 {
+        merge_chunks(k, parts.clone(), &offsets, cell_shift, Some(e.vertex_count))?
+    } else {
+        merge_parts(k, &parts, &offsets, cell_shift, Some(e.vertex_count))?
+    };
     parents.0 = todo.into_iter().zip(parts).collect();
     parents.1 = face_at;
     Ok(merged)
