@@ -92,6 +92,21 @@ pub fn choose_grid(h: &Hierarchy, q: Quantization) -> Result<Grid, EncodeError> 
     }
 }
 
+/// The grid of `h` under `opts`, after the checks every encoding starts with: some levels, at
+/// most 32, sound parent links, a version this crate writes.
+fn checked_grid(h: &Hierarchy, opts: &EncodeOptions) -> Result<Grid, EncodeError> {
+    if h.levels.is_empty() {
+        return Err(EncodeError::Empty);
+    }
+    if h.levels.len() > 32 {
+        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
+    }
+    h.check_links()?;
+    check_version(opts)?;
+    let grid = choose_grid(h, opts.quantization)?;
+    Ok(grid)
+}
+
 /// Fails unless `opts.version` is a version this crate writes (2 or 3).
 fn check_version(opts: &EncodeOptions) -> Result<(), EncodeError> {
     if !(2..=FORMAT_VERSION).contains(&opts.version) {
@@ -125,15 +140,7 @@ pub fn encode_levels(
     opts: &EncodeOptions,
     mut each: impl FnMut(&level_encode::Encoded) -> Result<(), EncodeError>,
 ) -> Result<Grid, EncodeError> {
-    if h.levels.is_empty() {
-        return Err(EncodeError::Empty);
-    }
-    if h.levels.len() > 32 {
-        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
-    }
-    h.check_links()?;
-    check_version(opts)?;
-    let grid = choose_grid(h, opts.quantization)?;
+    let grid = checked_grid(h, opts)?;
     let mut parent: Option<PlainLevel> = None;
     let mut parent_face_new: Vec<u32> = Vec::new();
     for k in 0..h.levels.len() {
@@ -369,15 +376,7 @@ fn merged_input_level(level: &Level, parts: Vec<(PlainLevel, Vec<u32>, u32)>) ->
 /// not tied, or two seam vertices could not be told apart.
 fn chunk_plan(h: &Hierarchy, opts: &EncodeOptions) -> Result<(Grid, Vec<crate::chunks::ChunkPlan>), EncodeError> {
     use crate::chunks;
-    if h.levels.is_empty() {
-        return Err(EncodeError::Empty);
-    }
-    if h.levels.len() > 32 {
-        return Err(EncodeError::Unsupported { level: 32, reason: "more than 32 levels".into() });
-    }
-    h.check_links()?;
-    check_version(opts)?;
-    let grid = choose_grid(h, opts.quantization)?;
+    let grid = checked_grid(h, opts)?;
     // A coarser split where vertices off the cell boundaries are shared by chunks (spec §11.4).
     let levels = h.levels.len() as u32;
     let plan = (opts.chunk_shift..levels)
