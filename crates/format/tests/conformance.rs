@@ -433,8 +433,8 @@ fn invalid_v5_set() -> Vec<Invalid> {
     ));
     // More chunks than the strict limits allow.
     let mut b = base.clone();
-    put32(&mut b, 108, 1 << 17);
-    out.push(("v5_too_many_chunks.mrq", "§7.2", "limit", "chunk_count 2^17 (the strict limit is 2^16)", b));
+    put32(&mut b, 108, 1 << 21);
+    out.push(("v5_too_many_chunks.mrq", "§7.2", "limit", "chunk_count 2^21 (the default limit is 2^20)", b));
     // A version 4 file that declares chunks.
     let mut b = encode(&cube_hierarchy(3, Edits::default(), 3), &v4(q(12))).unwrap();
     put32(&mut b, 108, 1);

@@ -7,6 +7,8 @@
 
 #[path = "spec_decoder/block.rs"]
 mod block;
+#[path = "spec_decoder/chunks.rs"]
+mod chunks;
 #[path = "spec_decoder/compare.rs"]
 mod compare;
 #[path = "spec_decoder/container.rs"]

@@ -70,23 +70,36 @@ impl FileContext {
 
 /// §3.5 and §7.1 step 6: the stored bytes of level `k`, checked and decompressed.
 pub fn payload(file: &[u8], k: usize, e: &Entry) -> Result<Vec<u8>> {
-    let end = e.offset.checked_add(e.stored_size).filter(|&end| end <= file.len() as u64);
+    let what = format!("level {k}");
+    let stored = stored_bytes(file, &what, e.offset, e.stored_size, e.checksum)?;
+    decompress(&what, stored, e.raw_size)
+}
+
+/// §3.5: the `size` stored bytes at `offset` of a level (or chunk, §11.3), `what`: all in the file,
+/// their XXH3-64 equal to `checksum`.
+pub fn stored_bytes<'a>(file: &'a [u8], what: &str, offset: u64, size: u64, checksum: u64) -> Result<&'a [u8]> {
+    let end = offset.checked_add(size).filter(|&end| end <= file.len() as u64);
     let Some(end) = end else {
-        return fail(Class::Truncated, format!("the file ends inside level {k} (offset {})", e.offset));
+        return fail(Class::Truncated, format!("the file ends inside {what} (offset {offset})"));
     };
-    let stored = &file[e.offset as usize..end as usize];
-    if xxhash_rust::xxh3::xxh3_64(stored) != e.checksum {
-        return fail(Class::Checksum, format!("level {k}"));
+    let stored = &file[offset as usize..end as usize];
+    if xxhash_rust::xxh3::xxh3_64(stored) != checksum {
+        return fail(Class::Checksum, what);
     }
-    // §3.5: one zstd frame stating its content size, equal to `raw_size`.
+    Ok(stored)
+}
+
+/// §3.5: checked stored bytes are one zstd frame stating its content size, equal to `raw_size`,
+/// which it decompresses to.
+pub fn decompress(what: &str, stored: &[u8], raw_size: u64) -> Result<Vec<u8>> {
     match zstd::zstd_safe::get_frame_content_size(stored) {
-        Ok(Some(size)) if size == e.raw_size => {}
-        _ => return invalid(format!("level {k}: the frame does not state raw_size")),
+        Ok(Some(size)) if size == raw_size => {}
+        _ => return invalid(format!("{what}: the frame does not state raw_size")),
     }
-    let Ok(raw) = zstd::bulk::decompress(stored, e.raw_size as usize) else {
-        return invalid(format!("level {k}: corrupt zstd frame"));
+    let Ok(raw) = zstd::bulk::decompress(stored, raw_size as usize) else {
+        return invalid(format!("{what}: corrupt zstd frame"));
     };
-    require(raw.len() as u64 == e.raw_size, || format!("level {k}: decompressed size"))?;
+    require(raw.len() as u64 == raw_size, || format!("{what}: decompressed size"))?;
     Ok(raw)
 }
 

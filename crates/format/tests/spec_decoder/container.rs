@@ -1,5 +1,6 @@
 //! Spec §3 (file structure) in the order of §7.1, steps 1-5, with the limits of §7.2.
 
+use super::chunks::{self, ChunkEntry};
 use super::primitives::{Class, Result, fail, invalid, require};
 
 /// §7.2: the reference decoder's default limits.
@@ -10,6 +11,8 @@ pub struct Limits {
     pub faces: u32,
     pub corners: u32,
     pub metadata_bytes: u32,
+    /// Chunk-index entries per file (§11.2); the per-level bounds apply to each chunk.
+    pub chunks: u32,
 }
 
 pub const DEFAULT_LIMITS: Limits = Limits {
@@ -19,6 +22,7 @@ pub const DEFAULT_LIMITS: Limits = Limits {
     faces: 1 << 28,
     corners: 1 << 30,
     metadata_bytes: 16 << 20,
+    chunks: 1 << 20,
 };
 
 /// §3.1 flags.
@@ -38,6 +42,8 @@ pub struct Header {
     pub cube_min: [f64; 3],
     pub cube_max: [f64; 3],
     pub metadata_size: u32,
+    /// Version 5: the number of chunk-index entries (§11.2); 0 before.
+    pub chunk_count: u32,
 }
 
 /// §3.2: one level table entry.
@@ -50,6 +56,8 @@ pub struct Entry {
     pub vertex_count: u32,
     pub face_count: u32,
     pub corner_count: u32,
+    /// Version 5: the depth of the level's chunk cells (§11.1); 0 before.
+    pub cell_depth: u32,
 }
 
 /// §3.3: the metadata block.
@@ -61,19 +69,23 @@ pub struct Metadata {
     pub entries: Vec<(String, String)>,
 }
 
+/// §3: the preamble, checked.
 pub struct Preamble {
     pub header: Header,
     pub entries: Vec<Entry>,
+    /// Version 5: the chunk index (§11.2), in listing order.
+    pub chunks: Vec<ChunkEntry>,
     pub metadata: Metadata,
 }
 
-fn u16_at(b: &[u8], at: usize) -> u16 {
+/// §1.2: the little-endian integers and floats at byte `at`.
+pub fn u16_at(b: &[u8], at: usize) -> u16 {
     u16::from_le_bytes([b[at], b[at + 1]])
 }
-fn u32_at(b: &[u8], at: usize) -> u32 {
+pub fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
 }
-fn u64_at(b: &[u8], at: usize) -> u64 {
+pub fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
 }
 fn f64_at(b: &[u8], at: usize) -> f64 {
@@ -108,8 +120,9 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
         cube_min: f64x3_at(h, 56),
         cube_max: f64x3_at(h, 80),
         metadata_size: u32_at(h, 104),
+        chunk_count: u32_at(h, 108),
     };
-    if !(1..=4).contains(&header.version) {
+    if !(1..=5).contains(&header.version) {
         return fail(Class::UnsupportedVersion, format!("version {}", header.version));
     }
     require(u16_at(h, 10) == 112, || "header_size is not 112".into())?;
@@ -121,7 +134,11 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
     if header.metadata_size > limits.metadata_bytes {
         return fail(Class::Limit, format!("metadata_size {} (offset 104)", header.metadata_size));
     }
-    require(u32_at(h, 108) == 0, || "header reserved field".into())?;
+    // Before version 5 the field is reserved (§3.1), then it is a count within the limits (§7.2).
+    require(header.version >= 5 || header.chunk_count == 0, || "chunk_count before version 5".into())?;
+    if header.chunk_count > limits.chunks {
+        return fail(Class::Limit, format!("chunk_count {} (offset 108)", header.chunk_count));
+    }
     let finite = header.origin.iter().chain(&header.cube_min).chain(&header.cube_max).chain([&header.step]);
     require(finite.into_iter().all(|x| x.is_finite()), || "origin, step or cube not finite".into())?;
     let (exact, tied, cube) = (header.flags & EXACT != 0, header.flags & TIED != 0, header.flags & CUBE != 0);
@@ -133,14 +150,15 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
     require(!tied || cube, || "TIED without CUBE".into())?;
     require(cube || h[56..104].iter().all(|&b| b == 0), || "cube bytes without CUBE".into())?;
 
-    // Step 3 (§3): the rest of the preamble.
+    // Step 3 (§3): the rest of the preamble; in version 5 the chunk index follows the table.
     let table_end = 112 + 48 * u64::from(header.level_count);
-    let meta_end = table_end + u64::from(header.metadata_size);
+    let index_end = table_end + 88 * u64::from(header.chunk_count);
+    let meta_end = index_end + u64::from(header.metadata_size);
     let preamble_size = meta_end + 8;
     if (file.len() as u64) < preamble_size {
         return fail(Class::Truncated, "the file ends inside the preamble (offset 112)");
     }
-    let (table_end, meta_end) = (table_end as usize, meta_end as usize);
+    let (table_end, index_end, meta_end) = (table_end as usize, index_end as usize, meta_end as usize);
     // Step 4 (§3.4).
     let stored = u64_at(file, meta_end);
     if xxhash_rust::xxh3::xxh3_64(&file[..meta_end]) != stored {
@@ -159,9 +177,14 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
             vertex_count: u32_at(e, 32),
             face_count: u32_at(e, 36),
             corner_count: u32_at(e, 40),
+            cell_depth: u32_at(e, 44),
         };
         require(entry.offset == next, || format!("level {k} does not follow the level before"))?;
-        require(u32_at(e, 44) == 0, || format!("level {k}: reserved field"))?;
+        if header.version >= 5 {
+            chunks::check_cell_depth(k, entry.cell_depth, entries.last().map(|p: &Entry| p.cell_depth))?;
+        } else {
+            require(entry.cell_depth == 0, || format!("level {k}: reserved field"))?;
+        }
         let over = entry.stored_size > limits.level_bytes
             || entry.raw_size > limits.level_bytes
             || entry.vertex_count > limits.vertices
@@ -173,9 +196,10 @@ pub fn read_preamble(file: &[u8], limits: &Limits) -> Result<Preamble> {
         next = entry.offset.saturating_add(entry.stored_size);
         entries.push(entry);
     }
-    // Step 5 (§3.3): the metadata block.
-    let metadata = read_metadata(&file[table_end..meta_end])?;
-    Ok(Preamble { header, entries, metadata })
+    // Step 5 (§11.2): the chunk index, then (§3.3) the metadata block.
+    let chunks = chunks::read_index(&file[table_end..index_end], &header, &entries, limits)?;
+    let metadata = read_metadata(&file[index_end..meta_end])?;
+    Ok(Preamble { header, entries, chunks, metadata })
 }
 
 /// §3.3: strings are a `u64` length and that many bytes of UTF-8; the fields fill the block.

@@ -20,7 +20,15 @@ pub fn decode(bytes: &[u8]) -> Result<File> {
     let h = &pre.header;
     let ctx = block::FileContext::new(h);
     let mut levels: Vec<Level> = Vec::new();
+    let mut above = std::collections::BTreeMap::new();
     for (k, e) in pre.entries.iter().enumerate() {
+        if h.version >= 5 {
+            // §11: the level from its chunks.
+            let (level, chunks) = super::chunks::decode_level(bytes, k, e, &pre.chunks, ctx, &above)?;
+            levels.push(level);
+            above = chunks;
+            continue;
+        }
         let raw = block::payload(bytes, k, e)?;
         let level = block::decode_level(k, &raw, e, ctx, levels.last())?;
         levels.push(level);

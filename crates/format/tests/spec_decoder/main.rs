@@ -9,6 +9,7 @@
 //! beside it; each file of `invalid/` must be rejected with the error class its README names.
 
 mod block;
+mod chunks;
 mod compare;
 mod container;
 mod file;
