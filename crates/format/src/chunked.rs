@@ -364,9 +364,9 @@ fn merge_parts(
     cell_shift: u32,
     expect_vertices: Option<u32>,
 ) -> Result<PlainLevel, DecodeError> {
-    let (nv, nf, nc) = parts.iter().fold((0, 0, 0), |(v, f, c), p| {
-        (v + p.q.len().max(p.exact.len()), f + p.parents.len(), c + p.indices.len())
-    });
+    let (nv, nf, nc) = parts
+        .iter()
+        .fold((0, 0, 0), |(v, f, c), p| (v + p.q.len().max(p.exact.len()), f + p.parents.len(), c + p.indices.len()));
     let mut out = PlainLevel {
         offsets: Vec::with_capacity(nf + 1),
         indices: Vec::with_capacity(nc),
