@@ -87,12 +87,9 @@ pub fn chunk_errors(h: &Hierarchy, chunks: &[ChunkInfo]) -> Vec<f32> {
     errors
 }
 
-/// Which chunks of a version 5 file a view needs (spec §11): refinement by replacement from the
-/// level 0 chunk down, the way 3D Tiles clients refine (`REPLACE`): a chunk that the view frustum
-/// meets and whose geometric error exceeds the camera's tolerance at its distance is replaced by
-/// the chunks refining it that the frustum meets (the others are culled: the view shows the
-/// surface in front of the camera, not a closed one); others are drawn as they are. The level 0
-/// chunk is always fetched. `aspect` is the viewport's width over its height.
+/// Which chunks of a version 5 file to fetch and draw: refinement by replacement from the root
+/// chunks down, the way 3D Tiles clients refine (`REPLACE`). The drawn chunks are a cut (no one
+/// refines another) for [`octowrap_format::ChunkedMrq::cut`], which makes their mesh crack-free.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ViewSelection {
     /// The chunks drawn (index order).
@@ -101,8 +98,43 @@ pub struct ViewSelection {
     pub fetched: Vec<u32>,
 }
 
-/// Selects the chunks a view needs; see [`ViewSelection`].
+/// The chunks a view shows: a chunk that the view frustum meets and whose geometric error exceeds
+/// the camera's tolerance at its distance is replaced by the chunks refining it that the frustum
+/// meets; the others are culled (neither fetched nor drawn: the view shows the surface in front of
+/// the camera, not a closed one). `aspect` is the viewport's width over its height.
 pub fn select_for_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64) -> ViewSelection {
+    let frustum = Frustum::new(camera, aspect);
+    let seen = |c: &ChunkInfo| frustum.meets(c.bbox_min.map(f64::from), c.bbox_max.map(f64::from));
+    refine_while(chunks, |c| seen(c) && exceeds(c, camera.tolerance_at(frustum.distance_to(c))), seen)
+}
+
+/// The chunks for a view of the whole surface: as [`select_for_view`], but no chunk is culled: a
+/// chunk outside the view frustum stays at the level where it leaves the view, so the drawn
+/// chunks cover the surface (and their crack-free mesh is closed wherever the finest level is).
+pub fn select_cover_for_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64) -> ViewSelection {
+    let frustum = Frustum::new(camera, aspect);
+    let seen = |c: &ChunkInfo| frustum.meets(c.bbox_min.map(f64::from), c.bbox_max.map(f64::from));
+    refine_while(chunks, |c| seen(c) && exceeds(c, camera.tolerance_at(frustum.distance_to(c))), |_| true)
+}
+
+/// The coarsest cover whose chunks are each within `max_error` (model units) of the finest level:
+/// a chunk whose geometric error exceeds it is replaced by the chunks refining it.
+pub fn select_for_error(chunks: &[ChunkInfo], max_error: f64) -> ViewSelection {
+    refine_while(chunks, |c| exceeds(c, max_error), |_| true)
+}
+
+/// Whether chunk `c`'s geometric error (unmeasured: infinite) exceeds `tolerance`.
+fn exceeds(c: &ChunkInfo, tolerance: f64) -> bool {
+    f64::from(c.geometric_error.unwrap_or(f32::INFINITY)) > tolerance
+}
+
+/// From every root chunk down: a chunk for which `refine` holds and that has children is replaced
+/// by those of its children for which `keep` holds (drawn itself when none does); others are drawn.
+fn refine_while(
+    chunks: &[ChunkInfo],
+    refine: impl Fn(&ChunkInfo) -> bool,
+    keep: impl Fn(&ChunkInfo) -> bool,
+) -> ViewSelection {
     let mut children: Vec<Vec<u32>> = vec![Vec::new(); chunks.len()];
     let mut roots = Vec::new();
     for (i, c) in chunks.iter().enumerate() {
@@ -111,30 +143,18 @@ pub fn select_for_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64
             _ => roots.push(i as u32),
         }
     }
-    let frustum = Frustum::new(camera, aspect);
     let mut out = ViewSelection::default();
     let mut stack: Vec<u32> = roots.into_iter().rev().collect();
     while let Some(i) = stack.pop() {
         let c = &chunks[i as usize];
         out.fetched.push(i);
-        let (lo, hi) = (c.bbox_min.map(f64::from), c.bbox_max.map(f64::from));
-        let seen = frustum.meets(lo, hi);
-        let error = f64::from(c.geometric_error.unwrap_or(f32::INFINITY));
-        if seen && !children[i as usize].is_empty() && error > camera.tolerance_at(frustum.distance(lo, hi)) {
-            // Children the frustum does not meet are culled: neither fetched nor drawn.
-            let visible: Vec<u32> = children[i as usize]
-                .iter()
-                .rev()
-                .copied()
-                .filter(|&j| {
-                    let c = &chunks[j as usize];
-                    frustum.meets(c.bbox_min.map(f64::from), c.bbox_max.map(f64::from))
-                })
-                .collect();
-            if visible.is_empty() {
+        if !children[i as usize].is_empty() && refine(c) {
+            let kept: Vec<u32> =
+                children[i as usize].iter().rev().copied().filter(|&j| keep(&chunks[j as usize])).collect();
+            if kept.is_empty() {
                 out.drawn.push(i);
             }
-            stack.extend(visible);
+            stack.extend(kept);
         } else {
             out.drawn.push(i);
         }
@@ -190,6 +210,11 @@ impl Frustum {
             || outside(&|x| -dot(x, r) - self.tan_x * dot(x, f))
             || outside(&|x| dot(x, u) - self.tan_y * dot(x, f))
             || outside(&|x| -dot(x, u) - self.tan_y * dot(x, f)))
+    }
+
+    /// Distance from the eye to chunk `c`'s bounding box (0 inside it).
+    fn distance_to(&self, c: &ChunkInfo) -> f64 {
+        self.distance(c.bbox_min.map(f64::from), c.bbox_max.map(f64::from))
     }
 
     /// Distance from the eye to the box (0 inside it).

@@ -677,11 +677,18 @@ impl<S: RangeSource> ChunkedMrq<S> {
     /// Decodes the chunks `wanted` and every ancestor they need, reading each chunk's bytes once
     /// (adjacent chunks in one request); returns every decoded chunk by index.
     pub fn decode_chunks(&mut self, wanted: &[u32]) -> Result<HashMap<u32, PlainLevel>, DecodeError> {
+        let mut done = HashMap::new();
+        self.decode_into(wanted, &mut done)?;
+        Ok(done)
+    }
+
+    /// Decodes into `done` the chunks `wanted` and their ancestors that it does not hold yet.
+    fn decode_into(&mut self, wanted: &[u32], done: &mut HashMap<u32, PlainLevel>) -> Result<(), DecodeError> {
         let mut need: Vec<u32> = Vec::new();
         let mut mark = vec![false; self.chunks.len()];
         for &w in wanted {
             let mut c = w;
-            while (c as usize) < self.chunks.len() && !mark[c as usize] {
+            while (c as usize) < self.chunks.len() && !mark[c as usize] && !done.contains_key(&c) {
                 mark[c as usize] = true;
                 need.push(c);
                 c = self.chunks[c as usize].parent;
@@ -722,16 +729,110 @@ impl<S: RangeSource> ChunkedMrq<S> {
             i = j;
         }
         let gi = grid_info(&self.pre);
-        let mut done: HashMap<u32, PlainLevel> = HashMap::new();
         let mut i = 0;
         while i < need.len() {
             let k = self.chunks[need[i] as usize].level;
             let j = i + need[i..].iter().take_while(|&&c| self.chunks[c as usize].level == k).count();
-            let parts = decode_level_chunks(&self.chunks, &need[i..j], |c| &bytes[&c][..], &done, gi)?;
+            let parts = decode_level_chunks(&self.chunks, &need[i..j], |c| &bytes[&c][..], done, gi)?;
             done.extend(need[i..j].iter().copied().zip(parts));
             i = j;
         }
-        Ok(done)
+        Ok(())
+    }
+
+    /// The crack-free mesh of the cut `drawn` (spec §11.5): chunks no one of which refines
+    /// another, fetched with their ancestors (each chunk's bytes once), stitched by the crack
+    /// rule, which replaces a chunk by the chunks refining it where it meets another level
+    /// without a shared seam ([`crate::stitch`]).
+    pub fn cut(&mut self, drawn: &[u32]) -> Result<crate::Cut, crate::CutError> {
+        use crate::CutError;
+        let n = self.chunks.len();
+        let mut drawn: Vec<u32> = drawn.to_vec();
+        drawn.sort_unstable();
+        if let Some(w) = drawn.windows(2).find(|w| w[0] == w[1]) {
+            return Err(CutError::Selection(format!("chunk {} is selected twice", w[0])));
+        }
+        if let Some(&c) = drawn.iter().find(|&&c| c as usize >= n) {
+            return Err(CutError::Selection(format!("chunk {c} does not exist: the file has {n} chunks")));
+        }
+        let selected: std::collections::HashSet<u32> = drawn.iter().copied().collect();
+        for &c in &drawn {
+            let mut a = self.chunks[c as usize].parent;
+            while (a as usize) < n {
+                if selected.contains(&a) {
+                    return Err(CutError::Selection(format!("chunk {c} refines chunk {a}, and both are selected")));
+                }
+                a = self.chunks[a as usize].parent;
+            }
+        }
+        let mut children: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for (i, c) in self.chunks.iter().enumerate() {
+            if (c.parent as usize) < n {
+                children[c.parent as usize].push(i as u32);
+            }
+        }
+        let mut done = HashMap::new();
+        let mut refined = 0u32;
+        let chunked = self.pre.header.version >= CHUNKED_VERSION;
+        let h = self.pre.header.clone();
+        let origin = DVec3::from_array(h.origin);
+        let world = |lv: &PlainLevel, v: usize| {
+            if lv.exact.is_empty() {
+                origin + DVec3::new(lv.q[v][0] as f64, lv.q[v][1] as f64, lv.q[v][2] as f64) * h.step
+            } else {
+                DVec3::from_array(lv.exact[v])
+            }
+        };
+        loop {
+            self.decode_into(&drawn, &mut done)?;
+            let parts: Vec<crate::stitch::Part<'_>> = drawn
+                .iter()
+                .map(|&c| {
+                    let e = &self.chunks[c as usize];
+                    let level = u32::from(e.level);
+                    let depth = if chunked { self.pre.levels[level as usize].cell_depth } else { 0 };
+                    crate::stitch::Part { chunk: c, level, depth, cell: e.cell, lv: &done[&c] }
+                })
+                .collect();
+            let s = crate::stitch::stitch(&parts, world);
+            // Each crack: refine its coarsest parts that have children.
+            let mut refine: Vec<u32> = Vec::new();
+            let mut unresolved = 0u32;
+            for c in &s.conflicts {
+                let low = c.iter().map(|&p| parts[p as usize].level).min().unwrap_or(0);
+                let high = c.iter().map(|&p| parts[p as usize].level).max().unwrap_or(0);
+                let coarse: Vec<u32> = c
+                    .iter()
+                    .map(|&p| parts[p as usize].chunk)
+                    .filter(|&ch| self.chunks[ch as usize].level as u32 == low && !children[ch as usize].is_empty())
+                    .collect();
+                if coarse.is_empty() || (low == high && c.len() > 1) {
+                    unresolved += 1;
+                } else {
+                    refine.extend(coarse);
+                }
+            }
+            refine.sort_unstable();
+            refine.dedup();
+            if refine.is_empty() {
+                let mut mesh = Mesh::from_positions(s.positions);
+                mesh.faces = s.faces;
+                let face_chunks = s.face_parts.iter().map(|&p| parts[p as usize].chunk).collect();
+                return Ok(crate::Cut {
+                    mesh,
+                    face_chunks,
+                    lattice: s.lattice,
+                    lattice_level: s.lattice_level,
+                    drawn,
+                    refined,
+                    unresolved,
+                });
+            }
+            refined += refine.len() as u32;
+            drawn.retain(|c| refine.binary_search(c).is_err());
+            drawn.extend(refine.iter().flat_map(|&c| children[c as usize].iter().copied()));
+            drawn.sort_unstable();
+        }
     }
 
     /// The faces of level `k` inside `region` (the chunks whose boxes meet it, whole; all of the

@@ -106,6 +106,7 @@ mod level_decode;
 mod level_encode;
 mod limits;
 mod placement;
+mod stitch;
 #[cfg(feature = "testing")]
 pub mod synthetic;
 #[cfg(feature = "testing")]
@@ -126,6 +127,7 @@ pub use geometry::decoder_lines::{DecodedLevels, DecoderLine, GridSpec, LineOrig
 pub use geometry::fixed::FixedLine;
 pub use limits::Limits;
 pub use placement::{LinePlacement, place_on_prediction_lines};
+pub use stitch::{Cut, CutError};
 
 /// The newest format version (spec §3.1). The decoder reads every version from 1 to this; the
 /// encoder writes versions 2 to this ([`EncodeOptions::version`]).

@@ -108,6 +108,13 @@ pub struct Args {
     /// MRQ input: cut for this camera (JSON file; schema above) instead of a fixed error.
     #[arg(long, value_name = "CAMERA.json", conflicts_with_all = ["max_error", "target_faces", "ratio"])]
     pub view: Option<PathBuf>,
+    /// MRQ input with --max-error or --view: how to cut. `chunks` selects whole chunks from a
+    /// version 5 file's index by their geometric errors, reads only those and their ancestors,
+    /// and stitches them crack-free (spec §11.5); `faces` decodes the whole hierarchy and cuts it
+    /// face by face (finer-grained, so fewer faces for the same error, but it reads the whole
+    /// file); `auto` is `chunks` for version 5 files, `faces` otherwise.
+    #[arg(long, value_name = "HOW", default_value = "auto", value_parser = ["auto", "chunks", "faces"])]
+    pub cut: String,
     /// Keep boundary vertices fixed (interior vertices may still collapse into them).
     #[arg(long)]
     pub lock_border: bool,
@@ -175,6 +182,8 @@ struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     cut: Option<octowrap_decimate::CutReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    chunk_cut: Option<ChunkCutReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<octowrap_decimate::metrics::Distance>,
     seconds: f64,
 }
@@ -222,6 +231,34 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
+    if cut && args.cut != "faces" {
+        // A chunked cut seeks: not through standard input or gzip.
+        let seekable = args.input != Path::new("-") && !octowrap_fsutil::is_gz(&args.input);
+        let version = if seekable {
+            let file = std::fs::File::open(&args.input).with_context(|| format!("opening {}", args.input.display()))?;
+            octowrap_format::read_info(std::io::BufReader::new(file), &octowrap_format::Limits::default())
+                .with_context(|| format!("reading {}", args.input.display()))?
+                .version
+        } else {
+            0
+        };
+        if version >= 5 {
+            return run_chunk_cut(args, camera.as_ref(), mrq_out, to);
+        }
+        if args.cut == "chunks" {
+            let why = if seekable {
+                format!("it is version {version}: rewrite it with `octowrap convert IN.mrq -o out.mrq`")
+            } else {
+                "a chunked cut reads parts of the file, which standard input and gzip cannot give".into()
+            };
+            bail!(
+                "--cut chunks needs a plain chunked MRQ file (format version 5), and '{}' is not: {why}; or use --cut faces",
+                args.input.display()
+            );
+        }
+    } else if args.cut != "auto" && !cut {
+        bail!("--cut chooses how an MRQ hierarchy is cut (with --max-error alone or --view); drop it");
+    }
     let (input, hierarchy) = if mrq_in {
         let h = mrq::read(&args.input, None)?.hierarchy;
         let Some(finest) = h.levels.last() else { bail!("{} holds no levels", args.input.display()) };
@@ -284,6 +321,7 @@ fn run_decimate(args: &Args, input: &Mesh) -> anyhow::Result<(Mesh, Report)> {
         output_vertices: out.mesh.vertex_count(),
         decimate: Some(out.report),
         cut: None,
+        chunk_cut: None,
         measured: None,
         seconds: 0.0,
     };
@@ -314,10 +352,108 @@ fn run_cut(args: &Args, camera: Option<Camera>, h: &Hierarchy, input: &Mesh) -> 
         output_vertices: out.mesh.vertex_count(),
         decimate: None,
         cut: Some(out.report),
+        chunk_cut: None,
         measured: None,
         seconds: 0.0,
     };
     Ok((out.mesh, report))
+}
+
+/// What a cut through chunks read and drew.
+#[derive(Debug, Serialize)]
+struct ChunkCutReport {
+    /// Chunks drawn, after the crack rule.
+    chunks_drawn: usize,
+    /// Chunks the crack rule replaced by the chunks refining them.
+    chunks_refined: u32,
+    /// Seams the crack rule could not close (the coarser chunk has no children).
+    unresolved_seams: u32,
+    /// Faces per level, coarsest first.
+    faces_per_level: Vec<usize>,
+    /// The largest geometric error of a drawn chunk (model units).
+    max_error: f64,
+    /// Bytes read from the file, and its size.
+    bytes_read: u64,
+    file_bytes: u64,
+    /// Read requests.
+    requests: u64,
+}
+
+/// The chunked cut of a version 5 file: the index picks the chunks, only they and their
+/// ancestors are read, and the crack rule stitches them.
+fn run_chunk_cut(args: &Args, camera: Option<&Camera>, mrq_out: bool, to: Option<Format>) -> anyhow::Result<ExitCode> {
+    use octowrap_decimate::chunks::{select_cover_for_view, select_for_error};
+    let file = std::fs::File::open(&args.input).with_context(|| format!("opening {}", args.input.display()))?;
+    let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let source = octowrap_format::SeekSource(std::io::BufReader::new(file));
+    let start = std::time::Instant::now();
+    let mut reader = octowrap_format::ChunkedMrq::open(source, &octowrap_format::Limits::default())
+        .with_context(|| format!("reading {}", args.input.display()))?;
+    let chunks = reader.chunks();
+    let info = reader.info();
+    let Some(finest) = info.levels.last() else { bail!("{} holds no levels", args.input.display()) };
+    let input_faces = finest.face_count as usize;
+    let (lo, hi) = chunks.iter().fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), c| {
+        ([0, 1, 2].map(|a| lo[a].min(f64::from(c.bbox_min[a]))), [0, 1, 2].map(|a| hi[a].max(f64::from(c.bbox_max[a]))))
+    });
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f64>().sqrt();
+    let selection = match (camera, args.max_error) {
+        // The camera file holds no aspect ratio: the view is taken as 16:9, and no chunk is
+        // culled (those out of view stay at the level where they leave it).
+        (Some(c), _) => select_cover_for_view(&chunks, c, 16.0 / 9.0),
+        (None, Some(ErrorBound::Absolute(e))) => select_for_error(&chunks, e),
+        (None, Some(ErrorBound::Relative(r))) => select_for_error(&chunks, r * diagonal),
+        (None, None) => bail!("a hierarchy cut needs --max-error or --view"),
+    };
+    let pb = progress::spinner(format!("cutting through {} of {} chunks", selection.drawn.len(), chunks.len()));
+    let cut = reader.cut(&selection.drawn);
+    pb.finish_and_clear();
+    let cut = cut.with_context(|| format!("cutting {}", args.input.display()))?;
+    let read = reader.stats();
+    let mut faces_per_level = vec![0usize; info.levels.len()];
+    for &c in &cut.face_chunks {
+        faces_per_level[chunks[c as usize].level as usize] += 1;
+    }
+    let max_error = cut
+        .drawn
+        .iter()
+        .map(|&c| f64::from(chunks[c as usize].geometric_error.unwrap_or(f32::NAN)))
+        .fold(0.0, f64::max);
+    let mut report = Report {
+        input: args.input.display().to_string(),
+        output: args.output.display().to_string(),
+        mode: "chunk cut",
+        input_faces,
+        output_faces: cut.mesh.faces.len(),
+        output_vertices: cut.mesh.vertex_count(),
+        decimate: None,
+        cut: None,
+        chunk_cut: Some(ChunkCutReport {
+            chunks_drawn: cut.drawn.len(),
+            chunks_refined: cut.refined,
+            unresolved_seams: cut.unresolved,
+            faces_per_level,
+            max_error,
+            bytes_read: read.bytes,
+            file_bytes,
+            requests: read.requests,
+        }),
+        measured: None,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    if args.measure {
+        let pb = progress::spinner("reading the finest level and measuring the distance to it");
+        let input = mrq::read(&args.input, None)?.hierarchy.levels.pop().context("levels")?.mesh;
+        report.measured = Some(distance(&input, &cut.mesh, &Sampling::default()));
+        pb.finish_and_clear();
+    }
+    write(args, mrq_out, to, &cut.mesh)?;
+    print_summary(&report, diagonal);
+    if args.json {
+        let json = serde_json::to_string_pretty(&report)?;
+        crate::out::stdout(|w| writeln!(w, "{json}"))?;
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn write(args: &Args, mrq_out: bool, to: Option<Format>, mesh: &Mesh) -> anyhow::Result<()> {
@@ -379,6 +515,25 @@ fn print_summary(r: &Report, diagonal: f64) {
             levels.join(" "),
             c.max_error,
             pct(c.max_error)
+        );
+    }
+    if let Some(c) = &r.chunk_cut {
+        let levels: Vec<String> = c.faces_per_level.iter().map(ToString::to_string).collect();
+        say!(
+            "  faces per level (coarsest first): {}; {} chunks drawn ({} refined by the crack rule{}); largest chunk error {:.6e} ({:.4}% of the diagonal), certified",
+            levels.join(" "),
+            c.chunks_drawn,
+            c.chunks_refined,
+            if c.unresolved_seams > 0 { format!(", {} seams left open", c.unresolved_seams) } else { String::new() },
+            c.max_error,
+            pct(c.max_error)
+        );
+        say!(
+            "  read {} of {} bytes ({:.1} %) in {} requests",
+            c.bytes_read,
+            c.file_bytes,
+            if c.file_bytes > 0 { 100.0 * c.bytes_read as f64 / c.file_bytes as f64 } else { 0.0 },
+            c.requests
         );
     }
     if let Some(m) = &r.measured {

@@ -1,0 +1,177 @@
+//! Crack-free mixed-level cuts of chunked MRQ files (spec §11.5) as `octowrap reconstruct`
+//! writes them: for random cameras on the dragon, the bunny and a LiDAR tile, the cut covering the
+//! whole surface (fine in view, coarse elsewhere) is stitched so that its only open edges are open
+//! edges of the levels they come from (none on a closed level), and no edge is used twice.
+
+#![allow(clippy::print_stderr)] // the tests print what the cuts read and drew
+
+mod common;
+
+use std::collections::HashSet;
+
+use common::{octowrap, text};
+use octowrap_decimate::Camera;
+use octowrap_decimate::chunks::select_cover_for_view;
+use octowrap_format::{ChunkedMrq, Cut, DecodeOptions, Limits};
+use octowrap_mesh::Hierarchy;
+
+/// `input` reconstructed to a chunked MRQ file with chunk cells of `2^shift` voxels.
+fn chunked(input: &std::path::Path, shift: u32, dir: &std::path::Path) -> Vec<u8> {
+    let mrq = dir.join(format!("{}.mrq", input.file_name().unwrap().to_string_lossy()));
+    let out = octowrap(&[
+        "reconstruct",
+        input.to_str().unwrap(),
+        "-o",
+        mrq.to_str().unwrap(),
+        "--chunk-shift",
+        &shift.to_string(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    std::fs::read(&mrq).unwrap()
+}
+
+/// Per level: its open half-edges (by vertex), as pairs of lattice corners.
+fn open_edges(h: &Hierarchy) -> Vec<HashSet<([u32; 3], [u32; 3])>> {
+    h.levels
+        .iter()
+        .map(|l| {
+            let corners = &l.lattice.as_ref().expect("lattice").vertex_corners;
+            let mut half = HashSet::new();
+            for f in l.mesh.faces.iter() {
+                for i in 0..f.len() {
+                    half.insert((f[i], f[(i + 1) % f.len()]));
+                }
+            }
+            // Open by vertex (two vertices may share a lattice corner), then named by corners.
+            half.iter()
+                .filter(|&&(a, b)| !half.contains(&(b, a)))
+                .map(|&(a, b)| (corners[a as usize], corners[b as usize]))
+                .collect()
+        })
+        .collect()
+}
+
+/// The cut's open half-edges that are no open edge of their face's level, and its half-edges
+/// used twice.
+fn cracks(cut: &Cut, chunk_levels: &[u32], open: &[HashSet<([u32; 3], [u32; 3])>]) -> (usize, usize) {
+    let m = cut.lattice_level;
+    let mut half: HashSet<(u32, u32)> = HashSet::new();
+    let mut twice = 0;
+    for f in cut.mesh.faces.iter() {
+        for i in 0..f.len() {
+            twice += usize::from(!half.insert((f[i], f[(i + 1) % f.len()])));
+        }
+    }
+    let mut foreign = 0;
+    for (fi, f) in cut.mesh.faces.iter().enumerate() {
+        let k = chunk_levels[cut.face_chunks[fi] as usize];
+        for i in 0..f.len() {
+            let (a, b) = (f[i], f[(i + 1) % f.len()]);
+            if half.contains(&(b, a)) {
+                continue;
+            }
+            let corner = |v: u32| cut.lattice[v as usize].map(|x| (x >> (m - k)) as u32);
+            if !open[k as usize].contains(&(corner(a), corner(b))) {
+                foreign += 1;
+                if std::env::var_os("CUT_DEBUG").is_some() {
+                    eprintln!(
+                        "  foreign: chunk {} level {k}: {:?} -> {:?} (level-{m} points {:?} -> {:?})",
+                        cut.face_chunks[fi],
+                        corner(a),
+                        corner(b),
+                        cut.lattice[a as usize],
+                        cut.lattice[b as usize]
+                    );
+                    for (gi, g) in cut.mesh.faces.iter().enumerate() {
+                        if g.contains(&a) || g.contains(&b) {
+                            let ks: Vec<_> = g.iter().map(|&v| (v, cut.lattice[v as usize])).collect();
+                            eprintln!(
+                                "    face {gi} chunk {} level {}: {ks:?}",
+                                cut.face_chunks[gi], chunk_levels[cut.face_chunks[gi] as usize]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (foreign, twice)
+}
+
+/// A camera at a random place around the box `lo..hi`, looking at a random point inside it, with
+/// a screen-space tolerance of 1 to 16 pixels, from `seed` (a deterministic generator).
+fn random_camera(lo: [f64; 3], hi: [f64; 3], seed: &mut u64) -> Camera {
+    let mut next = || {
+        *seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (*seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let size = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let target = [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]) * (0.2 + 0.6 * next()));
+    let (theta, z) = (std::f64::consts::TAU * next(), 2.0 * next() - 1.0);
+    let r = size * (0.15 + 1.2 * next());
+    let s = (1.0 - z * z).sqrt();
+    let position = [target[0] + r * s * theta.cos(), target[1] + r * s * theta.sin(), target[2] + r * z];
+    let up = if z.abs() > 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] };
+    let pixel_error = 1.0 + 15.0 * next();
+    let json = format!(
+        r#"{{"position": {position:?}, "target": {target:?}, "up": {up:?}, "fov_y_degrees": 40.0, "viewport_height_px": 1080, "pixel_error": {pixel_error}}}"#
+    );
+    Camera::from_json(&json).unwrap()
+}
+
+/// 20 random cameras on the file `bytes`: every cover cut is crack-free.
+fn twenty_cameras_are_crack_free(name: &str, bytes: &[u8]) {
+    let h = octowrap_format::decode(bytes, &DecodeOptions::default()).unwrap().hierarchy;
+    let open = open_edges(&h);
+    let mut reader = ChunkedMrq::open(bytes, &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let levels: Vec<u32> = chunks.iter().map(|c| c.level).collect();
+    let finest = *levels.iter().max().unwrap();
+    let b = h.levels.last().unwrap().mesh.vertices.bounds();
+    let (lo, hi) = (b.min.to_array(), b.max.to_array());
+    let mut seed = 7;
+    let (mut mixed, mut refined) = (0, 0);
+    for i in 0..20 {
+        let camera = random_camera(lo, hi, &mut seed);
+        let view = select_cover_for_view(&chunks, &camera, 16.0 / 9.0);
+        let cut = reader.cut(&view.drawn).unwrap();
+        let drawn_levels: HashSet<u32> = cut.drawn.iter().map(|&c| levels[c as usize]).collect();
+        mixed += usize::from(drawn_levels.len() > 1);
+        refined += cut.refined;
+        let (foreign, twice) = cracks(&cut, &levels, &open);
+        eprintln!(
+            "{name} camera {i}: {} chunks drawn (levels {:?}), {} refined by the crack rule, {} unresolved; {} faces; {foreign} open edges foreign to their level, {twice} used twice",
+            cut.drawn.len(),
+            {
+                let mut l: Vec<_> = drawn_levels.iter().collect();
+                l.sort();
+                l
+            },
+            cut.refined,
+            cut.unresolved,
+            cut.mesh.faces.len()
+        );
+        assert_eq!((foreign, twice, cut.unresolved), (0, 0, 0), "{name} camera {i}: {camera:?}");
+    }
+    eprintln!(
+        "{name}: {mixed} of 20 cuts mix levels; the crack rule refined {refined} chunks in all (finest level {finest})"
+    );
+    assert!(mixed >= 10, "{name}: only {mixed} of 20 cuts mix levels");
+}
+
+#[test]
+fn cuts_for_twenty_random_cameras_are_crack_free() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, data, shift) in [
+        ("dragon", "stanford-dragon/dragon_vrip.ply.gz", 5),
+        ("bunny", "stanford-bunny/reconstruction/bun_zipper.ply", 4),
+        ("autzen", "lidar-las/autzen_trim.laz", 5),
+    ] {
+        let Some(path) = octowrap_testdata::file(data) else {
+            octowrap_testdata::skip(data);
+            continue;
+        };
+        let bytes = chunked(&path, shift, dir.path());
+        twenty_cameras_are_crack_free(name, &bytes);
+    }
+}
