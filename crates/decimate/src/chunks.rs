@@ -108,6 +108,13 @@ pub fn select_for_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64
     refine_while(chunks, |c| seen(c) && exceeds(c, camera.tolerance_at(frustum.distance_to(c))), seen)
 }
 
+/// Per chunk: whether the view frustum meets its bounding box (for
+/// [`octowrap_format::ChunkedMrq::cut_where`] with a [`select_for_view`] selection).
+pub fn in_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64) -> Vec<bool> {
+    let frustum = Frustum::new(camera, aspect);
+    chunks.iter().map(|c| frustum.meets(c.bbox_min.map(f64::from), c.bbox_max.map(f64::from))).collect()
+}
+
 /// The chunks for a view of the whole surface: as [`select_for_view`], but no chunk is culled: a
 /// chunk outside the view frustum stays at the level where it leaves the view, so the drawn
 /// chunks cover the surface (and their crack-free mesh is closed wherever the finest level is).

@@ -745,6 +745,13 @@ impl<S: RangeSource> ChunkedMrq<S> {
     /// rule, which replaces a chunk by the chunks refining it where it meets another level
     /// without a shared seam ([`crate::stitch`]).
     pub fn cut(&mut self, drawn: &[u32]) -> Result<crate::Cut, crate::CutError> {
+        self.cut_where(drawn, |_| true)
+    }
+
+    /// [`Self::cut`] for a view that culls: where the crack rule replaces a chunk by the chunks
+    /// refining it, only those for which `keep(chunk index)` holds are drawn (the others are out
+    /// of view: neither fetched nor drawn).
+    pub fn cut_where(&mut self, drawn: &[u32], keep: impl Fn(u32) -> bool) -> Result<crate::Cut, crate::CutError> {
         use crate::CutError;
         let n = self.chunks.len();
         let mut drawn: Vec<u32> = drawn.to_vec();
@@ -830,7 +837,7 @@ impl<S: RangeSource> ChunkedMrq<S> {
             }
             refined += refine.len() as u32;
             drawn.retain(|c| refine.binary_search(c).is_err());
-            drawn.extend(refine.iter().flat_map(|&c| children[c as usize].iter().copied()));
+            drawn.extend(refine.iter().flat_map(|&c| children[c as usize].iter().copied()).filter(|&c| keep(c)));
             drawn.sort_unstable();
         }
     }
