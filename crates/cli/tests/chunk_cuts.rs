@@ -4,7 +4,7 @@
 //! counts what it reads; and mixed-level cuts (spec §11.5) are crack-free: for random cameras on
 //! the dragon, the bunny and a LiDAR tile, the cut covering the whole surface (fine in view, coarse
 //! elsewhere) has no open edge that is not an open edge of the level it comes from (none on a
-//! closed level), and no edge used twice.
+//! closed level), no edge used twice, and the validator finds it two-manifold.
 
 #![allow(clippy::print_stderr)] // the tests print what the cuts read and drew
 
@@ -35,10 +35,12 @@ impl RangeSource for Counting<'_> {
     }
 }
 
-/// The files the tests share, made once: `data` reconstructed with chunk shift `shift`.
-fn shared(data: &str, shift: u32) -> Option<&'static [u8]> {
+/// The files the tests share, made once: `data` reconstructed with chunk shift `shift`, its path
+/// and bytes.
+fn shared(data: &str, shift: u32) -> Option<(&'static std::path::Path, &'static [u8])> {
+    type Files = std::sync::Mutex<std::collections::HashMap<String, (&'static std::path::Path, &'static [u8])>>;
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    static FILES: OnceLock<std::sync::Mutex<std::collections::HashMap<String, &'static [u8]>>> = OnceLock::new();
+    static FILES: OnceLock<Files> = OnceLock::new();
     let Some(path) = octowrap_testdata::file(data) else {
         octowrap_testdata::skip(data);
         return None;
@@ -46,11 +48,14 @@ fn shared(data: &str, shift: u32) -> Option<&'static [u8]> {
     let dir = DIR.get_or_init(|| tempfile::tempdir().unwrap());
     let mut files = FILES.get_or_init(Default::default).lock().unwrap();
     let key = format!("{data}@{shift}");
-    Some(*files.entry(key).or_insert_with(|| Box::leak(chunked(&path, shift, dir.path()).into_boxed_slice())))
+    Some(*files.entry(key).or_insert_with(|| {
+        let (mrq, bytes) = chunked(&path, shift, dir.path());
+        (Box::leak(mrq.into_boxed_path()), Box::leak(bytes.into_boxed_slice()))
+    }))
 }
 
 /// `input` reconstructed to a chunked MRQ file with chunk cells of `2^shift` voxels.
-fn chunked(input: &std::path::Path, shift: u32, dir: &std::path::Path) -> Vec<u8> {
+fn chunked(input: &std::path::Path, shift: u32, dir: &std::path::Path) -> (std::path::PathBuf, Vec<u8>) {
     let mrq = dir.join(format!("{}-{shift}.mrq", input.file_name().unwrap().to_string_lossy()));
     let out = octowrap(&[
         "reconstruct",
@@ -61,7 +66,8 @@ fn chunked(input: &std::path::Path, shift: u32, dir: &std::path::Path) -> Vec<u8
         &shift.to_string(),
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    std::fs::read(&mrq).unwrap()
+    let bytes = std::fs::read(&mrq).unwrap();
+    (mrq, bytes)
 }
 
 /// Per level: its open half-edges (by vertex), as pairs of lattice corners.
@@ -186,6 +192,8 @@ fn twenty_cameras_are_crack_free(name: &str, bytes: &[u8]) {
             cut.mesh.faces.len()
         );
         assert_eq!((foreign, twice, cut.unresolved), (0, 0, 0), "{name} camera {i}: {camera:?}");
+        let v = octowrap_validate::validate_mesh(&cut.mesh, &octowrap_validate::ValidateOptions::default());
+        assert!(v.properties.oriented, "{name} camera {i}: {:?}", v.counts);
     }
     eprintln!(
         "{name}: {mixed} of 20 cuts mix levels; the crack rule refined {refined} chunks in all (finest level {finest})"
@@ -200,7 +208,7 @@ fn cuts_for_twenty_random_cameras_are_crack_free() {
         ("bunny", "stanford-bunny/reconstruction/bun_zipper.ply", 4),
         ("autzen", "lidar-las/autzen_trim.laz", 5),
     ] {
-        if let Some(bytes) = shared(data, shift) {
+        if let Some((_, bytes)) = shared(data, shift) {
             twenty_cameras_are_crack_free(name, bytes);
         }
     }
@@ -208,7 +216,7 @@ fn cuts_for_twenty_random_cameras_are_crack_free() {
 
 #[test]
 fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors() {
-    let Some(bytes) = shared("stanford-dragon/dragon_vrip.ply.gz", 5) else { return };
+    let Some((_, bytes)) = shared("stanford-dragon/dragon_vrip.ply.gz", 5) else { return };
     let chunks = ChunkedMrq::open(bytes, &Limits::default()).unwrap().chunks();
     let finest = chunks.iter().map(|c| c.level).max().unwrap();
     assert!(chunks.iter().filter(|c| c.level == finest).count() > 8, "the finest level is split");
@@ -272,4 +280,50 @@ fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors()
             assert_eq!(foreign, 0, "the whole surface is crack-free");
         }
     }
+}
+
+#[test]
+fn decimate_cuts_a_chunked_file_reading_only_the_chunks_it_needs() {
+    let Some((mrq, bytes)) = shared("stanford-dragon/dragon_vrip.ply.gz", 5) else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let camera = common::root().join("fixtures/cameras/dragon-head.json");
+    for (what, args) in
+        [("--view", vec!["--view", camera.to_str().unwrap()]), ("--max-error", vec!["--max-error", "0.2%"])]
+    {
+        let out_ply = dir.path().join("cut.ply");
+        let mut all = vec!["decimate", mrq.to_str().unwrap(), "-o", out_ply.to_str().unwrap(), "--json"];
+        all.extend(args);
+        let out = octowrap(&all);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let c = &report["chunk_cut"];
+        let (read, size) = (c["bytes_read"].as_u64().unwrap(), c["file_bytes"].as_u64().unwrap());
+        eprintln!("decimate {what}: {}", text(&out.stderr).trim());
+        assert_eq!(report["mode"], "chunk cut");
+        assert_eq!(size, bytes.len() as u64);
+        assert!(read < size, "{what} reads {read} of {size} bytes");
+        assert_eq!(c["unresolved_seams"], 0);
+        let levels: Vec<u64> = c["faces_per_level"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+        assert!(levels.iter().filter(|&&n| n > 0).count() >= 2, "{what} mixes levels: {levels:?}");
+        let mesh = octowrap_io::read_path(&out_ply, &octowrap_io::ReadOptions::default()).unwrap();
+        assert_eq!(mesh.faces.len() as u64, report["output_faces"].as_u64().unwrap());
+        let v = octowrap_validate::validate_mesh(&mesh, &octowrap_validate::ValidateOptions::default());
+        assert!(v.properties.oriented, "{what}: {:?}", v.counts);
+    }
+    // Asked for explicitly, the face-level cut reads the whole file.
+    let out_ply = dir.path().join("faces.ply");
+    let out = octowrap(&[
+        "decimate",
+        mrq.to_str().unwrap(),
+        "-o",
+        out_ply.to_str().unwrap(),
+        "--max-error",
+        "0.2%",
+        "--cut",
+        "faces",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["mode"], "cut");
 }

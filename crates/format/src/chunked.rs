@@ -807,13 +807,12 @@ impl<S: RangeSource> ChunkedMrq<S> {
             let mut unresolved = 0u32;
             for c in &s.conflicts {
                 let low = c.iter().map(|&p| parts[p as usize].level).min().unwrap_or(0);
-                let high = c.iter().map(|&p| parts[p as usize].level).max().unwrap_or(0);
                 let coarse: Vec<u32> = c
                     .iter()
                     .map(|&p| parts[p as usize].chunk)
                     .filter(|&ch| self.chunks[ch as usize].level as u32 == low && !children[ch as usize].is_empty())
                     .collect();
-                if coarse.is_empty() || (low == high && c.len() > 1) {
+                if coarse.is_empty() {
                     unresolved += 1;
                 } else {
                     refine.extend(coarse);

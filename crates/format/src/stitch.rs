@@ -13,7 +13,8 @@
 //!
 //! Then a **check**: an edge still without a twin that lies on its chunk's cell boundary, with a
 //! chunk of another level across it, is a crack; so are two vertices of one level snapped onto one
-//! vertex, a face that snapping degenerates, and an edge used twice in one direction. The coarser
+//! vertex, a face that snapping degenerates, an edge used twice in one direction, and a vertex
+//! where the faces of several chunks make more than one fan. The coarser
 //! chunk of each is replaced by the chunks refining it, and the steps run again, until no crack is
 //! left or the chunk to refine has no children (counted as unresolved).
 //!
@@ -183,23 +184,32 @@ pub(crate) fn stitch(parts: &[Part<'_>], world: impl Fn(&PlainLevel, usize) -> D
             }
         }
     }
+    // The faces with their filled corners.
+    let filled: Vec<Vec<u32>> = faces
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            let mut out = Vec::with_capacity(f.len());
+            for &a in f {
+                out.push(a);
+                if let Some(add) = inserts.get(&(fi as u32, a)) {
+                    out.extend(add);
+                }
+            }
+            out
+        })
+        .collect();
+    pinches(&filled, &face_parts, verts.pos.len(), &mut conflicts);
     for c in &mut conflicts {
         c.sort_unstable();
         c.dedup();
     }
     conflicts.sort_unstable();
     conflicts.dedup();
-    // The faces with their filled corners; vertices no face uses (snapped away) are dropped.
+    // Vertices no face uses (snapped away) are dropped.
     let mut new_index = vec![u32::MAX; verts.pos.len()];
-    for f in &faces {
-        for &a in f {
-            new_index[a as usize] = 0;
-        }
-    }
-    for add in inserts.values() {
-        for &a in add {
-            new_index[a as usize] = 0;
-        }
+    for &a in filled.iter().flatten() {
+        new_index[a as usize] = 0;
     }
     let (mut positions, mut lattice) = (Vec::new(), Vec::new());
     for (g, n) in new_index.iter_mut().enumerate() {
@@ -209,19 +219,69 @@ pub(crate) fn stitch(parts: &[Part<'_>], world: impl Fn(&PlainLevel, usize) -> D
             lattice.push(verts.key[g]);
         }
     }
-    let mut out = FaceList::with_capacity(faces.len(), faces.iter().map(Vec::len).sum());
+    let mut out = FaceList::with_capacity(filled.len(), filled.iter().map(Vec::len).sum());
     let mut corners = Vec::new();
-    for (fi, f) in faces.iter().enumerate() {
+    for f in &filled {
         corners.clear();
-        for &a in f {
-            corners.push(new_index[a as usize]);
-            if let Some(add) = inserts.get(&(fi as u32, a)) {
-                corners.extend(add.iter().map(|&x| new_index[x as usize]));
-            }
-        }
+        corners.extend(f.iter().map(|&a| new_index[a as usize]));
         out.push(&corners);
     }
     Stitched { positions, faces: out, face_parts, lattice, lattice_level: m, conflicts }
+}
+
+/// The check's last part: a vertex where faces of several parts meet, and whose faces there do
+/// not make one fan (joined through the edges they share), is a crack between those parts.
+fn pinches(faces: &[Vec<u32>], face_parts: &[u32], nv: usize, conflicts: &mut Vec<Vec<u32>>) {
+    // Per vertex, its corners: (face, previous corner, next corner).
+    let mut first_part = vec![u32::MAX; nv];
+    let mut seam = vec![false; nv];
+    for (fi, f) in faces.iter().enumerate() {
+        for &a in f {
+            let p = face_parts[fi];
+            if first_part[a as usize] == u32::MAX {
+                first_part[a as usize] = p;
+            } else if first_part[a as usize] != p {
+                seam[a as usize] = true;
+            }
+        }
+    }
+    let mut around: HashMap<u32, Vec<(u32, u32, u32)>> = HashMap::new();
+    for (fi, f) in faces.iter().enumerate() {
+        let n = f.len();
+        for i in 0..n {
+            if seam[f[i] as usize] {
+                around.entry(f[i]).or_default().push((fi as u32, f[(i + n - 1) % n], f[(i + 1) % n]));
+            }
+        }
+    }
+    let mut seams: Vec<u32> = around.keys().copied().collect();
+    seams.sort_unstable();
+    for v in seams {
+        let corners = &around[&v];
+        // Union-find over the corners: two corners join when one's next is the other's previous.
+        let mut root: Vec<usize> = (0..corners.len()).collect();
+        fn find(root: &mut [usize], mut i: usize) -> usize {
+            while root[i] != i {
+                root[i] = root[root[i]];
+                i = root[i];
+            }
+            i
+        }
+        let mut by_next: HashMap<u32, usize> = HashMap::new();
+        for (i, c) in corners.iter().enumerate() {
+            by_next.insert(c.2, i);
+        }
+        for (i, c) in corners.iter().enumerate() {
+            if let Some(&j) = by_next.get(&c.1) {
+                let (a, b) = (find(&mut root, i), find(&mut root, j));
+                root[a] = b;
+            }
+        }
+        let fans = (0..corners.len()).filter(|&i| find(&mut root, i) == i).count();
+        if fans > 1 {
+            conflicts.push(corners.iter().map(|c| face_parts[c.0 as usize]).collect());
+        }
+    }
 }
 
 /// The directed edges of face `f`.
