@@ -1,16 +1,20 @@
 #!/usr/bin/env python3
 """Draco's bits per vertex on a mesh, for the format section of the bench report (issue 4).
 
-Usage: python3 tools/bench/draco_bits.py MESH.ply [MESH.ply ...]   (needs `pip install DracoPy`)
+Usage: python3 tools/bench/draco_bits.py [--decode-runs N] MESH.ply [MESH.ply ...]
+(needs `pip install DracoPy`)
 
 Each mesh (ASCII or binary little-endian PLY with vertex x, y, z and a face list) is triangulated
 (quads split along corner 0-2, as Draco stores triangles only) and encoded with Draco at 12-bit
 position quantization, compression level 10 (the slowest, smallest). Prints bytes and bits per
-vertex. Get the finest levels as PLY with
+vertex; with `--decode-runs N`, also the best of N decodes of that encoding with DracoPy.decode
+(wall and thread CPU time, after one warm-up decode; the chunks area of the bench compares it
+with the MRQ decoder). Get the finest levels as PLY with
 `OCTOWRAP_DUMP_FINEST=DIR cargo run --release -p octowrap-bench -- format`.
 """
 import struct
 import sys
+import time
 
 import DracoPy
 
@@ -72,8 +76,23 @@ def read_ply(path):
     return verts, faces
 
 
+def decode_times(data, runs):
+    """Best wall and thread CPU seconds of `runs` decodes of `data`, after a warm-up decode."""
+    DracoPy.decode(data)
+    wall = cpu = float("inf")
+    for _ in range(runs):
+        w, c = time.perf_counter(), time.thread_time()
+        DracoPy.decode(data)
+        wall, cpu = min(wall, time.perf_counter() - w), min(cpu, time.thread_time() - c)
+    return wall, cpu
+
+
 def main():
-    for path in sys.argv[1:]:
+    args = sys.argv[1:]
+    runs = 0
+    if args[:1] == ["--decode-runs"]:
+        runs, args = int(args[1]), args[2:]
+    for path in args:
         verts, faces = read_ply(path)
         tris = []
         for f in faces:
@@ -82,8 +101,12 @@ def main():
         flat = [c for v in verts for c in v]
         data = DracoPy.encode(flat, faces=[i for t in tris for i in t], quantization_bits=12,
                               compression_level=10)
-        print(f"{path}: {len(verts)} vertices, {len(tris)} triangles, Draco 12-bit: {len(data)} bytes, "
-              f"{len(data) * 8 / len(verts):.2f} bits/vertex")
+        line = (f"{path}: {len(verts)} vertices, {len(tris)} triangles, Draco 12-bit: {len(data)} bytes, "
+                f"{len(data) * 8 / len(verts):.2f} bits/vertex")
+        if runs > 0:
+            wall, cpu = decode_times(data, runs)
+            line += f", decode best of {runs}: {wall * 1e3:.3f} ms wall, {cpu * 1e3:.3f} ms CPU"
+        print(line)
 
 
 if __name__ == "__main__":

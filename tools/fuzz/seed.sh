@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Builds tools/fuzz/corpus/<target>/ for every reader target and the MRQ decoder from fixtures/
-# and from the small, non-GPL files of ../shared/data (each data folder's PROVENANCE.md states its
-# licence; the lidR LAZ files and the PyMeshLab range map are GPL and left out). Nothing here is committed: the
-# corpora live in the git-ignored corpus/ folder. Files over 128 KiB (the targets' -max_len) are
-# skipped. Safe to re-run: it only adds files.
+# Builds tools/fuzz/corpus/<target>/ for every reader target, the MRQ decoder and the chunked reader
+# from fixtures/ (and synthetic version 5 files for the chunked reader) and from the small, non-GPL
+# files of ../shared/data (each data folder's PROVENANCE.md states its licence; the lidR LAZ files
+# and the PyMeshLab range map are GPL and left out). Nothing here is committed: the corpora live in
+# the git-ignored corpus/ folder. Files over 128 KiB (the targets' -max_len) are skipped. Safe to
+# re-run: it only adds files.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -33,6 +34,16 @@ add read_e57 "$data"/e57/tiny_spherical.e57 "$data"/e57/tinyCartesianFloatRgb.e5
 add read_conf "$data"/stanford-bunny/data/bun.conf
 # The MRQ decoder: the conformance files, valid, invalid and the regression ones.
 add decode "$root"/fixtures/format/*/*.mrq
+# The chunked reader and its cut: the conformance files as they are (checksums kept) behind the
+# selection of chunk 0, then (examples/seed_chunks.rs, a few minutes to build the first time) small
+# synthetic version 5 files with chunk shifts 1 and 2 and the conformance files, resealed by the
+# target, behind selections that are cuts, mixed-level cuts and not cuts.
+mkdir -p "$corpus/chunks"
+for f in "$root"/fixtures/format/*/*.mrq; do
+    { printf '\001\000\000\000'; cat "$f"; } > "$corpus/chunks/$(basename "$f" .mrq)-as_is"
+done
+(cd "$here" && cargo run --release --quiet --example seed_chunks -- "$corpus/chunks" "$root"/fixtures/format/*/*.mrq >/dev/null) \
+    || echo "chunks: examples/seed_chunks.rs did not run: seeded with the conformance files only" >&2
 # A tiny OpenEXR image from CPython's test data (PSF licence), when a CPython source tree has it.
 add read_exr $(find / -name python.exr -size -64k -path "*imghdrdata*" 2>/dev/null | head -1)
 
@@ -71,6 +82,6 @@ for t in read_ply read_obj read_off read_stl read_xyz read_pcd read_las read_e57
     fi
     k=$((k + 1))
 done
-for d in "$corpus"/read_* "$corpus"/decode; do
+for d in "$corpus"/read_* "$corpus"/decode "$corpus"/chunks; do
     echo "$(basename "$d"): $(ls "$d" | wc -l) seeds"
 done

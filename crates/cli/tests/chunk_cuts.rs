@@ -16,8 +16,7 @@ use std::sync::OnceLock;
 use common::{octowrap, text};
 use octowrap_decimate::Camera;
 use octowrap_decimate::chunks::{in_view, select_cover_for_view, select_for_view};
-use octowrap_format::{ChunkedMrq, Cut, DecodeOptions, Limits, RangeSource};
-use octowrap_mesh::Hierarchy;
+use octowrap_format::{ChunkedMrq, DecodeOptions, Limits, RangeSource};
 
 /// A byte-range source over `bytes` that counts requests and bytes.
 struct Counting<'a> {
@@ -70,74 +69,6 @@ fn chunked(input: &std::path::Path, shift: u32, dir: &std::path::Path) -> (std::
     (mrq, bytes)
 }
 
-/// Per level: its open half-edges (by vertex), as pairs of lattice corners.
-fn open_edges(h: &Hierarchy) -> Vec<HashSet<([u32; 3], [u32; 3])>> {
-    h.levels
-        .iter()
-        .map(|l| {
-            let corners = &l.lattice.as_ref().expect("lattice").vertex_corners;
-            let mut half = HashSet::new();
-            for f in l.mesh.faces.iter() {
-                for i in 0..f.len() {
-                    half.insert((f[i], f[(i + 1) % f.len()]));
-                }
-            }
-            // Open by vertex (two vertices may share a lattice corner), then named by corners.
-            half.iter()
-                .filter(|&&(a, b)| !half.contains(&(b, a)))
-                .map(|&(a, b)| (corners[a as usize], corners[b as usize]))
-                .collect()
-        })
-        .collect()
-}
-
-/// The cut's open half-edges that are no open edge of their face's level, and its half-edges
-/// used twice.
-fn cracks(cut: &Cut, chunk_levels: &[u32], open: &[HashSet<([u32; 3], [u32; 3])>]) -> (usize, usize) {
-    let m = cut.lattice_level;
-    let mut half: HashSet<(u32, u32)> = HashSet::new();
-    let mut twice = 0;
-    for f in cut.mesh.faces.iter() {
-        for i in 0..f.len() {
-            twice += usize::from(!half.insert((f[i], f[(i + 1) % f.len()])));
-        }
-    }
-    let mut foreign = 0;
-    for (fi, f) in cut.mesh.faces.iter().enumerate() {
-        let k = chunk_levels[cut.face_chunks[fi] as usize];
-        for i in 0..f.len() {
-            let (a, b) = (f[i], f[(i + 1) % f.len()]);
-            if half.contains(&(b, a)) {
-                continue;
-            }
-            let corner = |v: u32| cut.lattice[v as usize].map(|x| (x >> (m - k)) as u32);
-            if !open[k as usize].contains(&(corner(a), corner(b))) {
-                foreign += 1;
-                if std::env::var_os("CUT_DEBUG").is_some() {
-                    eprintln!(
-                        "  foreign: chunk {} level {k}: {:?} -> {:?} (level-{m} points {:?} -> {:?})",
-                        cut.face_chunks[fi],
-                        corner(a),
-                        corner(b),
-                        cut.lattice[a as usize],
-                        cut.lattice[b as usize]
-                    );
-                    for (gi, g) in cut.mesh.faces.iter().enumerate() {
-                        if g.contains(&a) || g.contains(&b) {
-                            let ks: Vec<_> = g.iter().map(|&v| (v, cut.lattice[v as usize])).collect();
-                            eprintln!(
-                                "    face {gi} chunk {} level {}: {ks:?}",
-                                cut.face_chunks[gi], chunk_levels[cut.face_chunks[gi] as usize]
-                            );
-                        }
-                    }
-                }
-            }
-        }
-    }
-    (foreign, twice)
-}
-
 /// A camera at a random place around the box `lo..hi`, looking at a random point inside it, with
 /// a screen-space tolerance of 1 to 16 pixels, from `seed` (a deterministic generator).
 fn random_camera(lo: [f64; 3], hi: [f64; 3], seed: &mut u64) -> Camera {
@@ -162,7 +93,7 @@ fn random_camera(lo: [f64; 3], hi: [f64; 3], seed: &mut u64) -> Camera {
 /// 20 random cameras on the file `bytes`: every cover cut is crack-free.
 fn twenty_cameras_are_crack_free(name: &str, bytes: &[u8]) {
     let h = octowrap_format::decode(bytes, &DecodeOptions::default()).unwrap().hierarchy;
-    let open = open_edges(&h);
+    let open = octowrap_format::cut_check::open_edges(&h);
     let mut reader = ChunkedMrq::open(bytes, &Limits::default()).unwrap();
     let chunks = reader.chunks();
     let levels: Vec<u32> = chunks.iter().map(|c| c.level).collect();
@@ -178,7 +109,8 @@ fn twenty_cameras_are_crack_free(name: &str, bytes: &[u8]) {
         let drawn_levels: HashSet<u32> = cut.drawn.iter().map(|&c| levels[c as usize]).collect();
         mixed += usize::from(drawn_levels.len() > 1);
         refined += cut.refined;
-        let (foreign, twice) = cracks(&cut, &levels, &open);
+        let octowrap_format::cut_check::CutCracks { foreign_open: foreign, twice } =
+            octowrap_format::cut_check::cut_cracks(&cut, &levels, &open);
         eprintln!(
             "{name} camera {i}: {} chunks drawn (levels {:?}), {} refined by the crack rule, {} unresolved; {} faces; {foreign} open edges foreign to their level, {twice} used twice",
             cut.drawn.len(),
@@ -236,7 +168,7 @@ fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors()
         Camera::from_json(&std::fs::read_to_string(common::root().join("fixtures/cameras/dragon-head.json")).unwrap())
             .unwrap();
     let h = octowrap_format::decode(bytes, &DecodeOptions::default()).unwrap().hierarchy;
-    let open = open_edges(&h);
+    let open = octowrap_format::cut_check::open_edges(&h);
     let levels: Vec<u32> = chunks.iter().map(|c| c.level).collect();
     // The view (chunks out of view culled), then the whole surface for the same camera.
     for (what, view) in [
@@ -257,7 +189,8 @@ fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors()
         drop(reader);
         assert_eq!((stats.requests, stats.bytes), (source.requests, source.read), "the reader counts what it reads");
         let share = source.read as f64 / bytes.len() as f64;
-        let (foreign, twice) = cracks(&cut, &levels, &open);
+        let octowrap_format::cut_check::CutCracks { foreign_open: foreign, twice } =
+            octowrap_format::cut_check::cut_cracks(&cut, &levels, &open);
         eprintln!(
             "dragon head close-up, {what}: {} of {} bytes ({:.1} %) in {} requests; {} chunks selected ({in_view_finest} of the finest level), {} drawn after {} refined by the crack rule, {} fetched of {}; {} faces, {foreign} open edges foreign to their level",
             source.read,

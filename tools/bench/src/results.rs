@@ -18,6 +18,7 @@ pub const AREAS: &[(&str, &str)] = &[
     ("io", "I/O: PLY read and write"),
     ("recon", "Reconstruction"),
     ("format", "Format: MRQ at 12-bit quantization"),
+    ("chunks", "Chunks: size, bytes read by a view, decode speed (format version 5)"),
     ("accuracy", "Accuracy: MRQ on decoder lines against free positions"),
     ("validate", "Validator"),
     ("decimate", "Decimation"),

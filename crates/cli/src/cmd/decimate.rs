@@ -384,7 +384,7 @@ struct ChunkCutReport {
 fn run_chunk_cut(args: &Args, camera: Option<&Camera>, mrq_out: bool, to: Option<Format>) -> anyhow::Result<ExitCode> {
     use octowrap_decimate::chunks::{select_cover_for_view, select_for_error};
     let file = std::fs::File::open(&args.input).with_context(|| format!("opening {}", args.input.display()))?;
-    let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let file_bytes = file.metadata().map_or(0, |m| m.len());
     let source = octowrap_format::SeekSource(std::io::BufReader::new(file));
     let start = std::time::Instant::now();
     let mut reader = octowrap_format::ChunkedMrq::open(source, &octowrap_format::Limits::default())
