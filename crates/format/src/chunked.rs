@@ -351,6 +351,7 @@ pub fn merge_chunks(
     if parts.len() == 1 && parent_face_offset[0] == 0 {
         let mut one = parts.into_iter().next().expect("one");
         one.rotation_hints = Vec::new();
+        one.quad_cache = crate::level_decode::QuadCache::default();
         return check_count(k, one, expect_vertices);
     }
     merge_parts(k, &parts, parent_face_offset, cell_shift, expect_vertices)
@@ -387,8 +388,9 @@ fn merge_parts(
         out.corners = Some(Vec::with_capacity(nv));
     }
     let mask = (1u32 << cell_shift) - 1;
-    // The standard hasher is keyed at random: a file cannot choose keys that collide.
-    let mut seen: HashMap<VertexKey, u32> = HashMap::new();
+    // foldhash is keyed at random per map (and fast): a file cannot choose keys that collide.
+    let mut seen: HashMap<VertexKey, u32, foldhash::fast::RandomState> =
+        HashMap::with_capacity_and_hasher(nv / 4, foldhash::fast::RandomState::default());
     let mut remap = Vec::new();
     for (i, p) in parts.iter().enumerate() {
         remap.clear();

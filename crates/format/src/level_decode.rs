@@ -37,6 +37,42 @@ pub struct PlainLevel {
     /// Mode 3 levels: per face its rotation byte when none of its corners is an exception (then
     /// it is the face's orientation as a parent, spec §5.3), else `u8::MAX`; empty otherwise.
     pub rotation_hints: Vec<u8>,
+    /// The level's canonical quads as a parent ([`Parent::canonical_quads`]), computed once when
+    /// first asked for (a chunk's children decode against the same parent chunk).
+    pub quad_cache: QuadCache,
+}
+
+/// A level's canonical quads, computed on first use. Cloning or comparing ignores it (it is
+/// derived from the level); a level changed after use as a parent takes a new one.
+#[derive(Default)]
+pub struct QuadCache(std::sync::OnceLock<CanonicalQuads>);
+
+/// Per parent face its canonical quad and orientation, or the first face that is not a quad.
+pub type CanonicalQuads = Result<Vec<([u32; 4], u8)>, usize>;
+
+impl QuadCache {
+    /// The cached value, computed by `f` on first use.
+    pub fn get(&self, f: impl FnOnce() -> CanonicalQuads) -> &CanonicalQuads {
+        self.0.get_or_init(f)
+    }
+}
+
+impl Clone for QuadCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl PartialEq for QuadCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for QuadCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() { "QuadCache(computed)" } else { "QuadCache(empty)" })
+    }
 }
 
 impl PlainLevel {
@@ -49,6 +85,7 @@ impl PlainLevel {
             slots: self.slots.as_deref(),
             corners: self.corners.as_deref(),
             rotation_hints: &self.rotation_hints,
+            quad_cache: Some(&self.quad_cache),
         }
     }
 }
@@ -143,7 +180,7 @@ fn decode_refinement(
         lattice::decode_faces(k, mode, st, &p.as_parent(), [nf, nc], (&mut out, pred, pos))?
     } else {
         generic::decode_faces(st, p, [nf, nc], (&mut out, pred, pos))?;
-        LatticeFaces { slots: Vec::new(), parent_quads: Vec::new(), name_bounds: None }
+        LatticeFaces { slots: Vec::new(), parent_quads: std::borrow::Cow::Borrowed(&[]), name_bounds: None }
     };
     let LatticeFaces { slots, parent_quads, name_bounds } = faces;
     if mode == Mode::FastLattice {

@@ -125,7 +125,11 @@ pub fn choose_geometry(
     st: &mut Streams,
 ) -> (u8, u32, Vec<([u32; 4], u8)>) {
     let pp = parent.as_parent();
-    let quads = if mode.is_lattice() { pp.canonical_quads().unwrap_or_default() } else { Vec::new() };
+    let quads = if mode.is_lattice() {
+        pp.canonical_quads().map(std::borrow::Cow::into_owned).unwrap_or_default()
+    } else {
+        Vec::new()
+    };
     let mut predictor = 0u8;
     let mut line_shift = 0u32;
     if topology_only {

@@ -11,11 +11,11 @@ use crate::topology::slots as lattice;
 use crate::topology::{NO_PARENT, Parent, ROTATIONS, rotated};
 
 /// The faces of a lattice level, as the rest of the level needs them.
-pub struct LatticeFaces {
+pub struct LatticeFaces<'a> {
     /// Per face its slot.
     pub slots: Vec<([u32; 3], u8)>,
     /// Per parent face its canonical quad and orientation.
-    pub parent_quads: Vec<([u32; 4], u8)>,
+    pub parent_quads: std::borrow::Cow<'a, [([u32; 4], u8)]>,
     /// The smallest and largest predicted key and the number of predicted corners.
     pub name_bounds: Option<(u64, u64, usize)>,
 }
@@ -27,14 +27,14 @@ fn header_error(k: u32, offset: u64, reason: String) -> DecodeError {
 /// Decodes the faces of a mode 2 or 3 level of depth `k` below parent `pp` (§5.3): into `out`
 /// their offsets, parents and quadrants (and for mode 3 the rotation bytes), per corner its
 /// predicted key into `pred` and, for subface corners, its canonical position into `pos`.
-pub fn decode_faces(
+pub fn decode_faces<'a>(
     k: u32,
     mode: Mode,
     st: &mut [Reader<'_>],
-    pp: &Parent<'_>,
+    pp: &Parent<'a>,
     [nf, nc]: [usize; 2],
     (out, pred, pos): (&mut PlainLevel, &mut [u64], &mut [u8]),
-) -> Result<LatticeFaces, DecodeError> {
+) -> Result<LatticeFaces<'a>, DecodeError> {
     let parent_quads = pp.canonical_quads().map_err(|f| {
         st[s::CHILD_MASKS].invalid(format!("lattice mode needs a lattice parent of quads (parent face {f})"))
     })?;

@@ -112,6 +112,9 @@ pub fn number_edges(offsets: &[u32], indices: &[u32]) -> (Vec<u32>, u32) {
     (edge_of_corner, next)
 }
 
+/// A canonical quad: its vertices in canonical corner order and its orientation byte.
+pub type Quad = ([u32; 4], u8);
+
 /// The parent level, as the refinement coders see it.
 pub struct Parent<'a> {
     /// Face offsets (CSR).
@@ -126,9 +129,11 @@ pub struct Parent<'a> {
     pub corners: Option<&'a [[u32; 3]]>,
     /// Per face, its orientation when known in advance (`u8::MAX`: compute it), or empty.
     pub rotation_hints: &'a [u8],
+    /// Where the canonical quads are kept once computed, if anywhere.
+    pub quad_cache: Option<&'a crate::level_decode::QuadCache>,
 }
 
-impl Parent<'_> {
+impl<'a> Parent<'a> {
     /// Number of faces.
     pub fn face_count(&self) -> usize {
         self.offsets.len() - 1
@@ -142,8 +147,19 @@ impl Parent<'_> {
     /// rotation byte, `0..8`, matching the most corners' lattice points to the slot's canonical
     /// corners) and its vertices in canonical corner order. `Err(f)`: face `f` is not a quad, or
     /// the level has no lattice coordinates.
+    pub fn canonical_quads(&self) -> Result<std::borrow::Cow<'a, [Quad]>, usize> {
+        match self.quad_cache {
+            Some(cache) => match cache.get(|| self.compute_canonical_quads()) {
+                Ok(q) => Ok(std::borrow::Cow::Borrowed(&q[..])),
+                Err(f) => Err(*f),
+            },
+            None => self.compute_canonical_quads().map(std::borrow::Cow::Owned),
+        }
+    }
+
+    /// [`Self::canonical_quads`], computed.
     #[allow(clippy::needless_range_loop)]
-    pub fn canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
+    fn compute_canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
         let (Some(slots), Some(corners)) = (self.slots, self.corners) else { return Err(0) };
         let mut out = Vec::with_capacity(self.face_count());
         for f in 0..self.face_count() {
