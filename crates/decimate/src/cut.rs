@@ -127,7 +127,13 @@ impl Camera {
 
     /// The world-space tolerance at distance `d` from the eye.
     pub fn tolerance_at(&self, d: f64) -> f64 {
-        self.pixel_error * 2.0 * d * (self.fov_y_degrees.to_radians() * 0.5).tan() / self.viewport_height_px
+        self.view().tolerance_at(d)
+    }
+
+    /// The camera as the chunk selection sees it ([`octowrap_format::select`]).
+    pub fn view(&self) -> octowrap_format::select::ViewCamera {
+        let Self { position, target, up, fov_y_degrees, viewport_height_px, pixel_error } = *self;
+        octowrap_format::select::ViewCamera { position, target, up, fov_y_degrees, viewport_height_px, pixel_error }
     }
 }
 

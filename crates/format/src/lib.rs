@@ -108,6 +108,7 @@ mod level_decode;
 mod level_encode;
 mod limits;
 mod placement;
+pub mod select;
 mod stitch;
 #[cfg(feature = "testing")]
 pub mod synthetic;

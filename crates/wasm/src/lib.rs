@@ -37,10 +37,12 @@
 #![doc = include_str!("../ZSTD.md")]
 
 pub mod stream;
+pub mod view;
 
 use wasm_bindgen::prelude::{JsError, wasm_bindgen};
 
 use crate::stream::{LevelMesh, Stream};
+use crate::view::View;
 
 /// One MRQ file being streamed (JavaScript: `new MrqStream(budgetBytes)`).
 #[wasm_bindgen]
@@ -160,4 +162,117 @@ impl DecodedLevel {
 /// A JavaScript number as a byte count or offset (negative and NaN as 0, beyond `u64` saturated).
 fn to_u64(x: f64) -> u64 {
     if x.is_nan() || x <= 0.0 { 0 } else { x as u64 }
+}
+
+/// One chunked MRQ file viewed view-dependently (JavaScript: `new MrqView(budgetBytes)`; see
+/// [`view`]).
+///
+/// ```js
+/// const v = new MrqView(256 * 2 ** 20);
+/// for (let r; (r = v.nextRanges()).length; )      // the preamble: [start, end, start, end, ...]
+///   for (let i = 0; i < r.length; i += 2) v.push(r[i], (await fetchRange(url, r[i], r[i + 1])).bytes);
+/// v.select([...eye, ...target, ...up, fovY, viewportHeight, pixelError], aspect);
+/// let m;
+/// while (!(m = v.cut()))                          // undefined: chunks it needs are still missing
+///   for (const [s, e] of pairs(v.nextRanges())) v.push(s, (await fetchRange(url, s, e)).bytes);
+/// draw(m.takePositions(), m.takeTriangles());
+/// ```
+#[wasm_bindgen]
+pub struct MrqView(View);
+
+#[wasm_bindgen]
+impl MrqView {
+    /// A view holding at most about `budget_bytes` of the file.
+    #[wasm_bindgen(constructor)]
+    pub fn new(budget_bytes: f64) -> MrqView {
+        MrqView(View::new(to_u64(budget_bytes)))
+    }
+
+    /// Adds the bytes fetched from `offset`.
+    pub fn push(&mut self, offset: f64, bytes: &[u8]) -> Result<(), JsError> {
+        Ok(self.0.push(to_u64(offset), bytes)?)
+    }
+
+    /// Records the file's length (from `Content-Range`).
+    #[wasm_bindgen(js_name = setFileLength)]
+    pub fn set_file_length(&mut self, len: f64) -> Result<(), JsError> {
+        Ok(self.0.set_file_len(to_u64(len))?)
+    }
+
+    /// Whether the preamble is in.
+    #[wasm_bindgen(js_name = isOpen)]
+    pub fn is_open(&self) -> bool {
+        self.0.info().is_some()
+    }
+
+    /// The file's format version (0 before the preamble is in).
+    pub fn version(&self) -> u32 {
+        self.0.info().map_or(0, |i| u32::from(i.version))
+    }
+
+    /// Levels in the file.
+    #[wasm_bindgen(js_name = levelCount)]
+    pub fn level_count(&self) -> u32 {
+        self.0.info().map_or(0, |i| i.levels.len() as u32)
+    }
+
+    /// Chunks in the file (one per level before version 5).
+    #[wasm_bindgen(js_name = chunkCount)]
+    pub fn chunk_count(&self) -> u32 {
+        self.0.chunks().len() as u32
+    }
+
+    /// The box holding every chunk: `[xmin, ymin, zmin, xmax, ymax, zmax]`.
+    pub fn bounds(&self) -> Vec<f64> {
+        let mut b = [f64::MAX, f64::MAX, f64::MAX, f64::MIN, f64::MIN, f64::MIN];
+        for c in self.0.chunks() {
+            for a in 0..3 {
+                b[a] = b[a].min(f64::from(c.bbox_min[a]));
+                b[a + 3] = b[a + 3].max(f64::from(c.bbox_max[a]));
+            }
+        }
+        b.to_vec()
+    }
+
+    /// Chooses the chunks for a camera: `[eye x, y, z, target x, y, z, up x, y, z, fov_y
+    /// degrees, viewport height px, pixel error]` and the viewport's width over height.
+    pub fn select(&mut self, camera: &[f64], aspect: f64) -> Result<(), JsError> {
+        let [px, py, pz, tx, ty, tz, ux, uy, uz, fov_y_degrees, viewport_height_px, pixel_error] = camera[..] else {
+            return Err(JsError::new("a camera is 12 numbers: eye, target, up, fov_y, viewport height, pixel error"));
+        };
+        let camera = octowrap_format::select::ViewCamera {
+            position: [px, py, pz],
+            target: [tx, ty, tz],
+            up: [ux, uy, uz],
+            fov_y_degrees,
+            viewport_height_px,
+            pixel_error,
+        };
+        self.0.select(&camera, aspect);
+        Ok(())
+    }
+
+    /// The byte ranges to fetch next, as `[start, end, start, end, ...]` (end exclusive).
+    #[wasm_bindgen(js_name = nextRanges)]
+    pub fn next_ranges(&self) -> Result<Vec<f64>, JsError> {
+        Ok(self.0.next_ranges()?.into_iter().flat_map(|(s, e)| [s as f64, e as f64]).collect())
+    }
+
+    /// The crack-free mesh of the selection, or `undefined` when chunks it needs are missing.
+    pub fn cut(&mut self) -> Result<Option<DecodedLevel>, JsError> {
+        Ok(self.0.cut()?.map(DecodedLevel))
+    }
+
+    /// What the last cut drew: `[chunks drawn, of the finest level, finest level drawn, chunks
+    /// refined by the crack rule, unresolved seams]`.
+    #[wasm_bindgen(js_name = lastCut)]
+    pub fn last_cut(&self) -> Vec<f64> {
+        let c = self.0.last_cut();
+        [c.drawn, c.finest_drawn, c.finest_level, c.refined, c.unresolved].map(f64::from).to_vec()
+    }
+
+    /// Bytes held.
+    pub fn held(&self) -> f64 {
+        self.0.held() as f64
+    }
 }

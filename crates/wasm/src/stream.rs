@@ -59,6 +59,9 @@ pub enum StreamError {
         /// The length reported now.
         now: u64,
     },
+    /// A view's chunk selection is not a cut (spec §11.5).
+    #[error("bad chunk selection: {0}")]
+    Selection(String),
     /// A level was asked for before its bytes arrived.
     #[error("level {level} is not ready: it needs bytes up to {end}, {held} have arrived")]
     NotReady {
