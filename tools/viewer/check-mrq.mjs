@@ -4,6 +4,11 @@
 //
 //   node check-mrq.mjs --url URL --mrq FILE.mrq --out DIR
 //                      [--truncated URL] [--corrupted URL] [--chromium PATH]
+//   node check-mrq.mjs --url URL --mrq FILE.mrq --out DIR --view-camera CAMERA.json
+//
+// With --view-camera, the page runs in view mode (chunked files) instead: the first frame, then
+// the close-up of the camera file (the schema of `octowrap decimate --view`), what its cut drew
+// and fetched, and the crack check from there.
 //
 // --url is the page URL `octowrap view FILE.mrq --no-open` printed; --mrq the same file (for the
 // Draco copy of its finest level); --truncated and --corrupted are pages of other `view`
@@ -104,6 +109,50 @@ try {
     return { page, state };
   };
 
+  if (args['view-camera']) {
+    // View mode: the first frame, then a close-up for the camera file, the cut it drew, the bytes
+    // fetched for it, the crack check from that camera.
+    const cam = JSON.parse(await readFile(args['view-camera'], 'utf8'));
+    const url = `${args.url}&mode=view&px=${cam.pixel_error ?? 1}`;
+    const { page: p, state: s } = await open(url, 'view-first');
+    result.view = s;
+    if (!s.error) {
+      result.view.closeUp = await p.evaluate(async (c) => {
+        const cut = await window.octowrap.viewTo(c.position, c.target, c.up ?? [0, 0, 1], c.fov_y_degrees);
+        return { cut, stats: window.octowrap.stats, fileSize: window.octowrap.fileSize };
+      }, cam);
+      await p.screenshot({ path: path.join(args.out, 'mrq-view-close.png') });
+      result.view.crack = await p.evaluate(() => window.octowrap.crackCheck());
+      result.view.panel = await p.evaluate(() => document.getElementById('panel').textContent);
+      await p.screenshot({ path: path.join(args.out, 'mrq-view-close-after-check.png') });
+    } else {
+      code = 1;
+    }
+    await p.close();
+    // The close-up straight away, on a fresh page: what a client that opens on it fetches.
+    const { page: q, state: d } = await open(`${url}&cam=${encodeURIComponent(JSON.stringify(cam))}`, 'view-direct');
+    result.direct = { error: d.error, firstFrame: d.firstFrame, consoleErrors: d.consoleErrors };
+    if (!d.error) {
+      result.direct.cut = await q.evaluate(() => window.octowrap.lastCut);
+      result.direct.crack = await q.evaluate(() => window.octowrap.crackCheck());
+    }
+    await q.close();
+  } else {
+    await levelChecks(open);
+  }
+} catch (err) {
+  console.error(`check-mrq.mjs: ${err && err.stack ? err.stack : err}`);
+  code = 2;
+} finally {
+  if (context) await context.close();
+  if (plain) plain.close();
+  await rm(profile, { recursive: true, force: true });
+}
+process.stdout.write(JSON.stringify(result) + '\n');
+process.exit(code);
+
+// Level mode: the stream, the crack check, the decoding speed against draco3d, and bad input.
+async function levelChecks(open) {
   const { page, state } = await open(args.url, 'streamed');
   result.main = state;
   if (state.error) {
@@ -136,13 +185,4 @@ try {
   if (args.truncated) await bad('truncated', args.truncated);
   if (args.corrupted) await bad('corrupted', args.corrupted);
   await bad('nosrc', new URL('/mrq.html', base).href);
-} catch (err) {
-  console.error(`check-mrq.mjs: ${err && err.stack ? err.stack : err}`);
-  code = 2;
-} finally {
-  if (context) await context.close();
-  if (plain) plain.close();
-  await rm(profile, { recursive: true, force: true });
 }
-process.stdout.write(JSON.stringify(result) + '\n');
-process.exit(code);

@@ -1,28 +1,116 @@
-// The MRQ viewer's Web Worker: fetches the byte ranges the WebAssembly stream names
-// (crates/wasm), decodes each level as its bytes complete, and posts the triangle arrays to the
-// page (transferred, not copied). The next range is in flight while a level decodes.
+// The MRQ viewer's Web Worker: fetches the byte ranges the WebAssembly decoder names
+// (crates/wasm), and posts triangle arrays to the page (transferred, not copied).
 //
-// Messages in:  {type: 'open', url, budget}          budget: bytes of decoding memory
-// Messages out: {type: 'info', levels: [{offset, stored, vertices, faces}], cube}
+// Two modes. Levels (the default): each level as its bytes complete, coarse to fine; the next
+// range is in flight while a level decodes. View (`mode: 'view'`, chunked files, format version
+// 5): for each camera the page sends, the chunks the view needs (fine where it looks, coarse
+// farther away, none out of view), fetched by range, and their crack-free cut (spec §11.5).
+//
+// Messages in:  {type: 'open', url, budget, mode}     budget: bytes of decoding memory (levels)
+//                                                     or of file bytes held (view)
+//               {type: 'view', id, camera, aspect}    camera: eye, target, up, fov_y, viewport
+//                                                     height, pixel error (12 numbers)
+// Messages out: {type: 'info', levels: [{offset, stored, vertices, faces}], cube, mode, bounds, chunks}
 //               {type: 'level', level, vertices, faces, triangles, positions, indices, decodeMs, stats}
+//               {type: 'cut', id, level, drawn, finestDrawn, refined, unresolved, faces, triangles,
+//                positions, indices, decodeMs, held, stats}
 //               {type: 'done', stats} | {type: 'error', message, stats}
 // stats: {requests, bytes, total}, counted when each response has arrived (total: the file's length).
-import init, { MrqStream } from './pkg/octowrap_wasm.js';
+import init, { MrqStream, MrqView } from './pkg/octowrap_wasm.js';
 import { fetchRange } from './mrq-loader.js';
 
 const ready = init({ module_or_path: new URL('./pkg/octowrap_wasm_bg.wasm', import.meta.url) });
+const stats = { requests: 0, bytes: 0, total: null };
+let view = null; // {v: MrqView, url, pending, busy}
+
+const message = (err) => (err && err.message ? err.message : String(err));
 
 self.onmessage = async (e) => {
+  if (e.data.type === 'view') {
+    if (view) {
+      view.pending = e.data;
+      if (!view.busy) runViews();
+    }
+    return;
+  }
   if (e.data.type !== 'open') return;
-  const stats = { requests: 0, bytes: 0, total: null };
   try {
     await ready;
+    if (e.data.mode === 'view') {
+      await openView(e.data.url, e.data.budget);
+      return;
+    }
     await stream(e.data.url, e.data.budget, stats);
     self.postMessage({ type: 'done', stats });
   } catch (err) {
-    self.postMessage({ type: 'error', message: err && err.message ? err.message : String(err), stats });
+    self.postMessage({ type: 'error', message: message(err), stats });
   }
 };
+
+// Fetches `ranges` ([start, end, start, end, ...]) in parallel into the view.
+async function fetchInto(v, url, ranges) {
+  const got = [];
+  for (let i = 0; i < ranges.length; i += 2) {
+    got.push(fetchRange(url, ranges[i], ranges[i + 1], stats).then((r) => [ranges[i], r]));
+  }
+  for (const [start, r] of await Promise.all(got)) {
+    stats.total = r.total;
+    if (r.total !== null) v.setFileLength(r.total);
+    v.push(start, r.bytes);
+  }
+}
+
+// View mode: the preamble, then one cut per camera the page sends (the latest wins).
+async function openView(url, budget) {
+  const v = new MrqView(budget);
+  while (!v.isOpen()) {
+    const r = v.nextRanges();
+    if (!r.length) throw new Error(`${url}: no MRQ preamble`);
+    await fetchInto(v, url, r);
+  }
+  view = { v, url, pending: null, busy: false };
+  self.postMessage({
+    type: 'info', mode: 'view', levels: [], cube: null, bounds: v.bounds(), chunks: v.chunkCount(),
+    levelCount: v.levelCount(), version: v.version(),
+  });
+}
+
+async function runViews() {
+  view.busy = true;
+  try {
+    while (view.pending) {
+      const req = view.pending;
+      view.pending = null;
+      await cutFor(req);
+    }
+  } catch (err) {
+    self.postMessage({ type: 'error', message: message(err), stats });
+  }
+  view.busy = false;
+}
+
+async function cutFor(req) {
+  const { v, url } = view;
+  v.select(Float64Array.from(req.camera), req.aspect);
+  for (let round = 0; round < 16; round++) {
+    const r = v.nextRanges();
+    if (r.length) await fetchInto(v, url, r);
+    const t0 = performance.now();
+    const m = v.cut();
+    if (!m) continue;
+    const [drawn, finestDrawn, level, refined, unresolved] = v.lastCut();
+    const counts = { faces: m.faces(), triangles: m.triangleCount(), vertices: m.vertices() };
+    const positions = m.takePositions();
+    const indices = m.takeTriangles();
+    m.free();
+    self.postMessage({
+      type: 'cut', id: req.id, level, drawn, finestDrawn, refined, unresolved, ...counts, positions, indices,
+      decodeMs: performance.now() - t0, held: v.held(), stats: { ...stats },
+    }, [positions.buffer, indices.buffer]);
+    return;
+  }
+  throw new Error('the cut still misses chunks after 16 rounds of range requests');
+}
 
 async function stream(url, budget, stats) {
   const s = new MrqStream(budget);

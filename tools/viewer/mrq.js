@@ -1,12 +1,19 @@
-// The MRQ viewer: streams `?src=URL.mrq` level by level (coarse first) through HTTP range
-// requests, decoded by the WebAssembly stream (crates/wasm) in a Web Worker, and shows each level
-// as soon as its bytes are in, replacing (and freeing) the one before. Orbit controls; a panel with
-// bytes fetched, requests, levels, faces, frame rate and the memory estimate against the budget.
+// The MRQ viewer: streams `?src=URL.mrq` through HTTP range requests, decoded by the WebAssembly
+// module (crates/wasm) in a Web Worker. By default level by level (coarse first), each level shown
+// as soon as its bytes are in, replacing (and freeing) the one before. With `mode=view` (chunked
+// files, format version 5) view-dependently: as the camera moves, the chunks the view needs at
+// `px` pixels of screen-space error (fine where it looks, coarse farther away, none out of view)
+// are fetched and shown as one crack-free mesh. Orbit controls; a panel with bytes fetched,
+// requests, levels or chunks, faces, frame rate and memory.
 //
-//   mrq.html?src=URL.mrq[&budget=MB]        budget: decoding memory in MiB (default 512)
+//   mrq.html?src=URL.mrq[&budget=MB][&mode=view][&px=N][&cam=JSON]
+//       budget: decoding memory (levels) or file bytes held (view), MiB (default 512)
+//       px: the largest screen-space error in view mode, pixels (default 1)
+//       cam: the first view's camera in view mode, JSON {position, target, up, fov_y_degrees}
+//            (default: the whole model)
 //
 // `window.octowrap` is the page's state for tests (tools/viewer/check-mrq.mjs): ready, done,
-// error, firstFrame, shown, stats, and `crackCheck`, `bench`, `setView`.
+// error, firstFrame, shown, stats, lastCut, and `crackCheck`, `bench`, `setView`, `viewTo`.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
@@ -15,6 +22,10 @@ const BACKGROUND = new THREE.Color(0x1e2630);
 const params = new URLSearchParams(location.search);
 const src = params.get('src');
 const budgetMiB = Number(params.get('budget') || 512);
+const viewMode = params.get('mode') === 'view';
+const pixelError = Number(params.get('px') || 1);
+// `cam={"position": [...], "target": [...], "up": [...], "fov_y_degrees": N}`: the first view.
+const startCamera = params.get('cam') ? JSON.parse(params.get('cam')) : null;
 const panel = document.getElementById('panel');
 const errorBox = document.getElementById('error');
 const state = {
@@ -74,10 +85,14 @@ function updatePanel() {
   const lines = [
     `${src}`,
     `bytes fetched  ${kb(s.bytes)}${total ? ` of ${kb(total)} (${((100 * s.bytes) / total).toFixed(0)} %)` : ''} in ${s.requests} range requests`,
-    `level          ${last ? last.level : '–'} of ${info ? info.levels.length - 1 : '?'}${state.done ? '' : ' (streaming)'}`,
-    `chunks         whole levels (${state.shown.length} decoded)`,
+    `level          ${last ? last.level : '–'} of ${info ? info.levelCount - 1 : '?'}${state.done ? '' : ' (streaming)'}`,
+    viewMode
+      ? `chunks         ${state.lastCut ? `${state.lastCut.drawn} drawn (${state.lastCut.finestDrawn} of the finest level) of ${info ? info.chunks : '?'}` : '–'}`
+      : `chunks         whole levels (${state.shown.length} decoded)`,
     `faces          ${last ? last.faces.toLocaleString('en') : '–'} (${last ? last.triangles.toLocaleString('en') : '–'} triangles)`,
-    `memory         ~${kb(last ? info.levels[last.level].memory : 0)} of ${kb(state.budget)} budget`,
+    viewMode
+      ? `memory         ${kb(state.lastCut ? state.lastCut.held : 0)} of the file held, ${kb(state.budget)} budget`
+      : `memory         ~${kb(last ? info.levels[last.level].memory : 0)} of ${kb(state.budget)} budget`,
     `frame rate     ${state.fps} fps`,
   ];
   panel.textContent = lines.join('\n');
@@ -110,7 +125,53 @@ state.setView = (dir, factor) => {
   camera.lookAt(framed.center);
   controls.update();
   renderer.render(scene, camera);
+  if (viewMode) requestView();
 };
+
+// View mode: asks the worker for the cut of the current camera (the latest request wins);
+// `coarse` asks for a quick first one at 1000 times the error (coarse levels only, one chunk
+// each right after the preamble: one more request). Returns the request's id.
+let worker = null;
+let viewId = 0;
+const viewWaiters = new Map();
+function requestView(coarse = false) {
+  viewId += 1;
+  const t = controls.target;
+  const cam = [camera.position.x, camera.position.y, camera.position.z, t.x, t.y, t.z,
+    camera.up.x, camera.up.y, camera.up.z, camera.fov, renderer.domElement.height, coarse ? 1000 * pixelError : pixelError];
+  worker.postMessage({ type: 'view', id: viewId, camera: cam, aspect: camera.aspect });
+  return viewId;
+}
+let viewTimer = null;
+controls.addEventListener('change', () => {
+  if (!viewMode || !worker || !framed) return;
+  clearTimeout(viewTimer);
+  viewTimer = setTimeout(() => requestView(), 150);
+});
+
+// Places the camera at `position` looking at `target` (`up`, vertical field of view `fov`
+// degrees) and, in view mode, resolves with the cut for it once shown.
+state.viewTo = (position, target, up, fov) => {
+  placeCamera(position, target, up, fov);
+  if (!viewMode) return Promise.resolve(null);
+  const id = requestView();
+  return new Promise((ok) => viewWaiters.set(id, ok));
+};
+
+function placeCamera(position, target, up, fov) {
+  camera.position.set(...position);
+  camera.up.set(...up);
+  camera.fov = fov;
+  controls.target.set(...target);
+  const d = camera.position.distanceTo(controls.target);
+  camera.near = Math.max(d / 1000, 1e-6);
+  camera.far = d + (framed ? framed.radius * 4 : d * 10);
+  camera.updateProjectionMatrix();
+  camera.lookAt(controls.target);
+  controls.update();
+  clearTimeout(viewTimer);
+  renderer.render(scene, camera);
+}
 
 function geometryOf(positions, indices) {
   const g = new THREE.BufferGeometry();
@@ -281,18 +342,62 @@ async function dracoDecoder(wasmBinary) {
   return dracoModule;
 }
 
+// View mode: frames the camera on the file's chunk boxes, then a coarse first cut and the real one.
+function openView(msg) {
+  state.info = { levels: [], levelCount: msg.levelCount, chunks: msg.chunks, mode: 'view' };
+  const b = msg.bounds;
+  const min = new THREE.Vector3(b[0], b[1], b[2]), max = new THREE.Vector3(b[3], b[4], b[5]);
+  framed = new THREE.Sphere(min.clone().add(max).multiplyScalar(0.5), min.distanceTo(max) / 2);
+  state.radius = framed.radius;
+  if (startCamera) {
+    // `cam=`: the first view is this camera's, not the whole model.
+    placeCamera(startCamera.position, startCamera.target, startCamera.up ?? [0, 0, 1], startCamera.fov_y_degrees ?? FOV);
+  } else {
+    const d = new THREE.Vector3(0.25, 0.3, 1).normalize();
+    const distance = framed.radius * 2.6;
+    controls.target.copy(framed.center);
+    camera.position.copy(framed.center).addScaledVector(d, distance);
+    camera.near = Math.max(distance / 100, 1e-6);
+    camera.far = distance + framed.radius * 4;
+    camera.updateProjectionMatrix();
+    camera.lookAt(framed.center);
+    controls.update();
+  }
+  clearTimeout(viewTimer);
+  requestView(true);
+  state.firstView = requestView();
+}
+
+function showCut(msg) {
+  state.lastCut = { id: msg.id, level: msg.level, drawn: msg.drawn, finestDrawn: msg.finestDrawn, refined: msg.refined,
+    unresolved: msg.unresolved, faces: msg.faces, held: msg.held, stats: msg.stats };
+  show(msg);
+  if (msg.id >= state.firstView) state.done = true;
+  for (const [id, ok] of viewWaiters) {
+    if (id <= msg.id) {
+      viewWaiters.delete(id);
+      ok(state.lastCut);
+    }
+  }
+  updatePanel();
+}
+
 function main() {
   if (!src) {
     fail('no file given: open mrq.html?src=URL.mrq');
     return;
   }
   requestAnimationFrame(loop);
-  const worker = new Worker(new URL('./mrq-worker.js', import.meta.url), { type: 'module' });
+  worker = new Worker(new URL('./mrq-worker.js', import.meta.url), { type: 'module' });
   worker.onerror = (e) => fail(`the decoder worker failed: ${e.message || 'it could not start (is pkg/ built? tools/viewer/build-wasm.sh)'}`);
   worker.onmessage = (e) => {
     const msg = e.data;
-    if (msg.type === 'info') {
-      state.info = { levels: msg.levels, cube: msg.cube };
+    if (msg.type === 'info' && msg.mode === 'view') {
+      openView(msg);
+    } else if (msg.type === 'info') {
+      state.info = { levels: msg.levels, levelCount: msg.levels.length, cube: msg.cube };
+    } else if (msg.type === 'cut') {
+      showCut(msg);
     } else if (msg.type === 'level') {
       show(msg);
     } else if (msg.type === 'done') {
@@ -305,7 +410,7 @@ function main() {
     }
   };
   state.start = performance.now();
-  worker.postMessage({ type: 'open', url: new URL(src, location.href).href, budget: state.budget });
+  worker.postMessage({ type: 'open', url: new URL(src, location.href).href, budget: state.budget, mode: viewMode ? 'view' : 'levels' });
   updatePanel();
 }
 

