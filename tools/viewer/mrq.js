@@ -353,17 +353,9 @@ function openView(msg) {
     // `cam=`: the first view is this camera's, not the whole model.
     placeCamera(startCamera.position, startCamera.target, startCamera.up ?? [0, 0, 1], startCamera.fov_y_degrees ?? FOV);
   } else {
-    const d = new THREE.Vector3(0.25, 0.3, 1).normalize();
-    const distance = framed.radius * 2.6;
-    controls.target.copy(framed.center);
-    camera.position.copy(framed.center).addScaledVector(d, distance);
-    camera.near = Math.max(distance / 100, 1e-6);
-    camera.far = distance + framed.radius * 4;
-    camera.updateProjectionMatrix();
-    camera.lookAt(framed.center);
-    controls.update();
+    const eye = framed.center.clone().addScaledVector(new THREE.Vector3(0.25, 0.3, 1).normalize(), framed.radius * 2.6);
+    placeCamera(eye.toArray(), framed.center.toArray(), [0, 1, 0], FOV);
   }
-  clearTimeout(viewTimer);
   requestView(true);
   state.firstView = requestView();
 }

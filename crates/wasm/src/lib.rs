@@ -1,9 +1,11 @@
 //! The MRQ decoder for web browsers: `octowrap-format`'s reader compiled to WebAssembly
-//! (`wasm32-unknown-unknown`, bindings by wasm-bindgen), streaming one file level by level from
-//! HTTP range requests into typed arrays for `THREE.BufferGeometry`.
+//! (`wasm32-unknown-unknown`, bindings by wasm-bindgen), streaming one file from HTTP range
+//! requests into typed arrays for `THREE.BufferGeometry`, level by level ([`MrqStream`]) or,
+//! for chunked files (format version 5), view-dependently ([`MrqView`]).
 //!
-//! The logic stays in Rust ([`stream::Stream`]); JavaScript only fetches the byte ranges the
-//! stream names and uploads the arrays. `tools/viewer/mrq-worker.js` runs it in a Web Worker:
+//! The logic stays in Rust ([`stream::Stream`], [`view::View`]); JavaScript only fetches the byte
+//! ranges they name and uploads the arrays. `tools/viewer/mrq-worker.js` runs them in a Web
+//! Worker. Level by level:
 //!
 //! ```js
 //! const s = new MrqStream(512 * 2 ** 20);          // memory budget in bytes
@@ -19,12 +21,13 @@
 //! }
 //! ```
 //!
-//! `nextRange` is where view dependence slots in: with per-level chunks it becomes "the chunks of
-//! the cut for this camera"; today it asks for the preamble (at least
-//! [`stream::FIRST_REQUEST_BYTES`], which holds a reconstruction's coarse levels too, so that the
-//! first frame needs one request) and then for one level after the other. Decoding level `k`
-//! decodes the levels above it again (the format codes each level against its decoded parent),
-//! about a third more work than decoding the finest level alone.
+//! `nextRange` asks for the preamble (at least [`stream::FIRST_REQUEST_BYTES`], which holds a
+//! reconstruction's coarse levels too, so that the first frame needs one request) and then for
+//! one level after the other. Decoding level `k` decodes the levels above it again (the format
+//! codes each level against its decoded parent), about a third more work than decoding the finest
+//! level alone. View-dependently ([`MrqView`]), each camera selects the chunks its view needs
+//! (`octowrap_format::select`), `nextRanges` names the byte ranges of those not held (and of the
+//! chunks the crack rule adds), and `cut` returns their crack-free mesh (spec §11.5).
 //!
 //! Errors reach JavaScript as `Error`s whose message names the byte offset: a truncated file, a
 //! checksum that does not match, a file that goes on after its last level.

@@ -74,6 +74,33 @@ pub enum StreamError {
     },
 }
 
+/// Where the first requests end while the preamble is not all in: at least
+/// [`FIRST_REQUEST_BYTES`], the preamble's length once the header says it (`preamble_len`), and
+/// no further than the file's length when known (a short file's first request may run past its
+/// end). Fails when the preamble does not fit in the file.
+pub(crate) fn preamble_end(file_len: Option<u64>, preamble_len: Option<u64>) -> Result<u64, StreamError> {
+    let want = preamble_len.unwrap_or(0).max(FIRST_REQUEST_BYTES);
+    match (file_len, preamble_len) {
+        (Some(len), Some(p)) if p > len => {
+            Err(StreamError::Truncated { len, what: "the preamble".into(), start: 0, end: p })
+        }
+        (Some(len), _) => Ok(want.min(len)),
+        (None, _) => Ok(want),
+    }
+}
+
+/// Records a file's length in `slot`; fails when a length recorded before differs (the file
+/// changed while it was being read).
+pub(crate) fn record_len(slot: &mut Option<u64>, len: u64) -> Result<(), StreamError> {
+    match *slot {
+        Some(before) if before != len => Err(StreamError::FileChanged { before, now: len }),
+        _ => {
+            *slot = Some(len);
+            Ok(())
+        }
+    }
+}
+
 /// One decoded level as triangle arrays for a GPU: positions in world units, three `f32` per
 /// vertex; three vertex indices per triangle (quads split along their shorter diagonal, as
 /// [`octowrap_mesh::Mesh::triangles`] does).
@@ -130,13 +157,7 @@ impl Stream {
     /// before differs (the file changed while it was being read); a length that contradicts the
     /// level table is reported by [`Stream::next_range`], once the levels before the damage are in.
     pub fn set_file_len(&mut self, len: u64) -> Result<(), StreamError> {
-        match self.file_len {
-            Some(before) if before != len => Err(StreamError::FileChanged { before, now: len }),
-            _ => {
-                self.file_len = Some(len);
-                Ok(())
-            }
-        }
+        record_len(&mut self.file_len, len)
     }
 
     /// Adds bytes fetched from `offset`. They must start within or at the end of the prefix held;
@@ -175,15 +196,7 @@ impl Stream {
     pub fn next_range(&self) -> Result<Option<Range<u64>>, StreamError> {
         let held = self.held();
         let Some(info) = &self.info else {
-            let want = self.preamble_len.unwrap_or(0).max(FIRST_REQUEST_BYTES);
-            let end = match (self.file_len, self.preamble_len) {
-                (Some(len), Some(p)) if p > len => {
-                    return Err(StreamError::Truncated { len, what: "the preamble".into(), start: 0, end: p });
-                }
-                // The first request may run past a short file's end.
-                (Some(len), _) => want.min(len),
-                (None, _) => want,
-            };
+            let end = preamble_end(self.file_len, self.preamble_len)?;
             return Ok((end > held).then_some(held..end));
         };
         let next = self.ready_level().map_or(0, |k| k + 1);

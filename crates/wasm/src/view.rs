@@ -16,7 +16,7 @@ use std::rc::Rc;
 use octowrap_format::select::{ViewCamera, in_view, select_for_view};
 use octowrap_format::{ChunkInfo, ChunkedMrq, CutError, DecodeError, Limits, RangeSource};
 
-use crate::stream::{FIRST_REQUEST_BYTES, LevelMesh, StreamError};
+use crate::stream::{LevelMesh, StreamError};
 
 /// Byte ranges received, by start offset, with what reads found missing.
 #[derive(Debug, Default)]
@@ -158,13 +158,7 @@ impl View {
 
     /// Records the file's length (from `Content-Range`).
     pub fn set_file_len(&mut self, len: u64) -> Result<(), StreamError> {
-        match self.file_len {
-            Some(before) if before != len => Err(StreamError::FileChanged { before, now: len }),
-            _ => {
-                self.file_len = Some(len);
-                Ok(())
-            }
-        }
+        crate::stream::record_len(&mut self.file_len, len)
     }
 
     /// Adds the bytes fetched from `offset`; opens the file once its preamble is in.
@@ -220,14 +214,7 @@ impl View {
         let held = self.held.0.borrow();
         if self.reader.is_none() {
             let have = held.prefix().len() as u64;
-            let want = self.preamble_len.unwrap_or(0).max(FIRST_REQUEST_BYTES);
-            let end = match (self.file_len, self.preamble_len) {
-                (Some(len), Some(p)) if p > len => {
-                    return Err(StreamError::Truncated { len, what: "the preamble".into(), start: 0, end: p });
-                }
-                (Some(len), _) => want.min(len),
-                (None, _) => want,
-            };
+            let end = crate::stream::preamble_end(self.file_len, self.preamble_len)?;
             return Ok(if end > have { vec![(have, end)] } else { Vec::new() });
         }
         let mut want: Vec<(u64, u64)> = self

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use octowrap_decimate::Camera;
 use octowrap_decimate::chunks::{encode_measured, in_view, select_cover_for_view, select_for_view};
 use octowrap_format::{
-    ChunkInfo, ChunkedMrq, DecodeOptions, EncodeOptions, Limits, Quantization, RangeSource, decode_bytes,
+    ChunkInfo, ChunkedMrq, CountingSource, DecodeOptions, EncodeOptions, Limits, Quantization, decode_bytes,
     place_on_prediction_lines,
 };
 use octowrap_mesh::{Hierarchy, Level};
@@ -63,22 +63,6 @@ struct Model {
     v5: Vec<(u32, Vec<u8>, f64, bool)>,
     /// The version 4 file's finest level, decoded, as PLY (for Draco).
     ply: PathBuf,
-}
-
-/// A byte-range source over a buffer that counts the requests and bytes it serves.
-struct Counting<'a> {
-    bytes: &'a [u8],
-    requests: u64,
-    read: u64,
-}
-
-impl RangeSource for Counting<'_> {
-    fn read_range(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
-        self.requests += 1;
-        self.read += buf.len() as u64;
-        let mut b = self.bytes;
-        b.read_range(offset, buf)
-    }
 }
 
 /// The level's faces as sorted lists of vertex positions (bit patterns), sorted: equal for two
@@ -357,7 +341,7 @@ fn view_cut(bytes: &[u8], camera: &Camera, culled: bool) -> Result<ViewRow, octo
     let seen = in_view(&chunks, camera, ASPECT);
     let selection =
         if culled { select_for_view(&chunks, camera, ASPECT) } else { select_cover_for_view(&chunks, camera, ASPECT) };
-    let mut source = Counting { bytes, requests: 0, read: 0 };
+    let mut source = CountingSource::new(bytes);
     let mut reader = ChunkedMrq::open(&mut source, &Limits::default()).expect("opens");
     let cut = if culled {
         reader.cut_where(&selection.drawn, |c| seen[c as usize])?
@@ -367,7 +351,7 @@ fn view_cut(bytes: &[u8], camera: &Camera, culled: bool) -> Result<ViewRow, octo
     drop(reader);
     let level = |c: u32| chunks[c as usize].level;
     Ok(ViewRow {
-        read: source.read,
+        read: source.bytes,
         requests: source.requests,
         selected: selection.drawn.len(),
         drawn: cut.drawn.len(),

@@ -57,7 +57,12 @@ use crate::progress;
 /// screen-space error in pixels allowed by the camera); the regions are stitched through the finest
 /// level's vertices, so the result is crack-free and two-manifold wherever the finest level is.
 /// The largest such region distance is reported; the cut's distance to the finest level is at
-/// most that.
+/// most that. On a chunked file (format version 5) the cut is made of whole chunks instead: the
+/// index's geometric errors choose them (with --view, every chunk is kept, those out of view at
+/// the level where they leave it, viewport taken as 16:9), only they and their ancestors are read,
+/// and the crack rule of spec §11.5 stitches them (it refines a chunk where two levels do not fit);
+/// the bytes read are reported. --cut faces asks for the face-level cut, which reads the whole
+/// file and is finer-grained.
 ///
 /// Camera JSON for --view (the schema):
 ///   { "position": [x, y, z],          eye, world units
