@@ -75,13 +75,16 @@ fi
 # The gz target: a format byte (high bit clear: the rest is gzipped by the target), then content.
 k=0
 for t in read_ply read_obj read_off read_stl read_xyz read_pcd read_las read_e57 read_exr; do
-    f=$(ls "$corpus/$t" 2>/dev/null | head -1)
-    if [ -n "$f" ]; then
-        { printf "\\$(printf '%03o' $k)"; cat "$corpus/$t/$f"; } > "$corpus/read_gz/$t-plain"
-        { printf "\\$(printf '%03o' $((k + 128)))"; gzip -c -n "$corpus/$t/$f"; } > "$corpus/read_gz/$t-gzip"
+    # The first seed by name (a glob, not `ls | head`: a grown corpus would end ls with SIGPIPE,
+    # which pipefail turns into a failure).
+    seeds=("$corpus/$t"/*)
+    f=${seeds[0]}
+    if [ -f "$f" ]; then
+        { printf "\\$(printf '%03o' $k)"; cat "$f"; } > "$corpus/read_gz/$t-plain"
+        { printf "\\$(printf '%03o' $((k + 128)))"; gzip -c -n "$f"; } > "$corpus/read_gz/$t-gzip"
     fi
     k=$((k + 1))
 done
 for d in "$corpus"/read_* "$corpus"/decode "$corpus"/chunks; do
-    echo "$(basename "$d"): $(ls "$d" | wc -l) seeds"
+    echo "$(basename "$d"): $(find "$d" -maxdepth 1 -type f | wc -l) seeds"
 done
