@@ -6,7 +6,8 @@
 //                      [--truncated URL] [--corrupted URL] [--chromium PATH]
 //   node check-mrq.mjs --url URL --mrq FILE.mrq --out DIR --view-camera CAMERA.json
 //
-// With --view-camera, the page runs in view mode (chunked files) instead: the first frame, then
+// The level checks ask for `mode=levels`. With --view-camera, the page's default mode instead
+// (view mode, for a chunked file): the first frame, then
 // the close-up of the camera file (the schema of `octowrap decimate --view`), what its cut drew
 // and fetched, and the crack check from there.
 //
@@ -113,7 +114,8 @@ try {
     // View mode: the first frame, then a close-up for the camera file, the cut it drew, the bytes
     // fetched for it, the crack check from that camera.
     const cam = JSON.parse(await readFile(args['view-camera'], 'utf8'));
-    const url = `${args.url}&mode=view&px=${cam.pixel_error ?? 1}`;
+    // The page's default mode: a chunked file is viewed view-dependently.
+    const url = `${args.url}&px=${cam.pixel_error ?? 1}`;
     const { page: p, state: s } = await open(url, 'view-first');
     result.view = s;
     if (!s.error) {
@@ -124,6 +126,7 @@ try {
       await p.screenshot({ path: path.join(args.out, 'mrq-view-close.png') });
       result.view.crack = await p.evaluate(() => window.octowrap.crackCheck());
       result.view.panel = await p.evaluate(() => document.getElementById('panel').textContent);
+      result.view.mode = await p.evaluate(() => window.octowrap.info && window.octowrap.info.mode);
       await p.screenshot({ path: path.join(args.out, 'mrq-view-close-after-check.png') });
     } else {
       code = 1;
@@ -153,7 +156,7 @@ process.exit(code);
 
 // Level mode: the stream, the crack check, the decoding speed against draco3d, and bad input.
 async function levelChecks(open) {
-  const { page, state } = await open(args.url, 'streamed');
+  const { page, state } = await open(`${args.url}&mode=levels`, 'streamed');
   result.main = state;
   if (state.error) {
     code = 1;
@@ -182,7 +185,7 @@ async function levelChecks(open) {
   await bad('notfound', new URL('/mrq.html?src=/data/missing.mrq', base).href);
   plain = await noRangeServer(args.mrq);
   await bad('norange', new URL(`/mrq.html?src=${encodeURIComponent(`http://127.0.0.1:${plain.address().port}/file.mrq`)}`, base).href);
-  if (args.truncated) await bad('truncated', args.truncated);
-  if (args.corrupted) await bad('corrupted', args.corrupted);
+  if (args.truncated) await bad('truncated', `${args.truncated}&mode=levels`);
+  if (args.corrupted) await bad('corrupted', `${args.corrupted}&mode=levels`);
   await bad('nosrc', new URL('/mrq.html', base).href);
 }

@@ -1,12 +1,14 @@
 // The MRQ viewer's Web Worker: fetches the byte ranges the WebAssembly decoder names
 // (crates/wasm), and posts triangle arrays to the page (transferred, not copied).
 //
-// Two modes. Levels (the default): each level as its bytes complete, coarse to fine; the next
-// range is in flight while a level decodes. View (`mode: 'view'`, chunked files, format version
-// 5): for each camera the page sends, the chunks the view needs (fine where it looks, coarse
-// farther away, none out of view), fetched by range, and their crack-free cut (spec §11.5).
+// Two modes. View (chunked files, format version 5, with more chunks than levels): for each
+// camera the page sends, the chunks the view needs (fine where it looks, coarse farther away,
+// none out of view), fetched by range, and their crack-free cut (spec §11.5). Levels (other
+// files, or `mode: 'levels'`): each level as its bytes complete, coarse to fine; the next range
+// is in flight while a level decodes. `mode: 'auto'` (the default) chooses after the preamble.
 //
-// Messages in:  {type: 'open', url, budget, mode}     budget: bytes of decoding memory (levels)
+// Messages in:  {type: 'open', url, budget, mode}     mode: 'auto', 'view' or 'levels';
+//                                                     budget: bytes of decoding memory (levels)
 //                                                     or of file bytes held (view)
 //               {type: 'view', id, camera, aspect}    camera: eye, target, up, fov_y, viewport
 //                                                     height, pixel error (12 numbers)
@@ -36,38 +38,57 @@ self.onmessage = async (e) => {
   if (e.data.type !== 'open') return;
   try {
     await ready;
-    if (e.data.mode === 'view') {
-      await openView(e.data.url, e.data.budget);
+    if (e.data.mode === 'levels') {
+      await stream(e.data.url, e.data.budget, []);
+      self.postMessage({ type: 'done', stats });
       return;
     }
-    await stream(e.data.url, e.data.budget, stats);
+    // View mode for chunked files (asked for, or `auto` and the file has more chunks than
+    // levels); otherwise the levels, from the preamble bytes already here.
+    const { v, pieces } = await preamble(e.data.url, e.data.budget);
+    if (e.data.mode === 'view' || (v.version() >= 5 && v.chunkCount() > v.levelCount())) {
+      openView(e.data.url, v);
+      return;
+    }
+    v.free();
+    await stream(e.data.url, e.data.budget, pieces);
     self.postMessage({ type: 'done', stats });
   } catch (err) {
     self.postMessage({ type: 'error', message: message(err), stats });
   }
 };
 
-// Fetches `ranges` ([start, end, start, end, ...]) in parallel into the view.
+// Fetches `ranges` ([start, end, start, end, ...]) in parallel into the view; returns the pieces
+// as [start, bytes, total].
 async function fetchInto(v, url, ranges) {
   const got = [];
   for (let i = 0; i < ranges.length; i += 2) {
     got.push(fetchRange(url, ranges[i], ranges[i + 1], stats).then((r) => [ranges[i], r]));
   }
+  const pieces = [];
   for (const [start, r] of await Promise.all(got)) {
     stats.total = r.total;
     if (r.total !== null) v.setFileLength(r.total);
     v.push(start, r.bytes);
+    pieces.push([start, r.bytes, r.total]);
   }
+  return pieces;
 }
 
-// View mode: the preamble, then one cut per camera the page sends (the latest wins).
-async function openView(url, budget) {
+// The file's preamble, into a view (and the pieces fetched, for the level stream).
+async function preamble(url, budget) {
   const v = new MrqView(budget);
+  const pieces = [];
   while (!v.isOpen()) {
     const r = v.nextRanges();
     if (!r.length) throw new Error(`${url}: no MRQ preamble`);
-    await fetchInto(v, url, r);
+    pieces.push(...await fetchInto(v, url, r));
   }
+  return { v, pieces };
+}
+
+// View mode: one cut per camera the page sends (the latest wins).
+function openView(url, v) {
   view = { v, url, pending: null, busy: false };
   self.postMessage({
     type: 'info', mode: 'view', levels: [], cube: null, bounds: v.bounds(), chunks: v.chunkCount(),
@@ -112,17 +133,27 @@ async function cutFor(req) {
   throw new Error('the cut still misses chunks after 16 rounds of range requests');
 }
 
-async function stream(url, budget, stats) {
+// Level mode: `pieces` ([start, bytes, total], from offset 0 on) are the bytes already fetched.
+async function stream(url, budget, pieces) {
   const s = new MrqStream(budget);
-  let range = s.nextRange();
+  const have = pieces.slice();
+  let range = have.length ? null : s.nextRange();
   let inflight = range && fetchRange(url, range[0], range[1], stats);
   let shown = -1;
   let infoSent = false;
-  while (inflight) {
-    const got = await inflight;
+  while (have.length || inflight) {
+    let got;
+    if (have.length) {
+      const [start, bytes, total] = have.shift();
+      range = [start, start + bytes.length];
+      got = { bytes, total };
+    } else {
+      got = await inflight;
+    }
     stats.total = got.total;
     if (got.total !== null) s.setFileLength(got.total);
     s.push(range[0], got.bytes);
+    if (have.length) continue;
     if (!infoSent && s.levelCount() > 0) {
       infoSent = true;
       const levels = [];

@@ -1,12 +1,13 @@
 // The MRQ viewer: streams `?src=URL.mrq` through HTTP range requests, decoded by the WebAssembly
-// module (crates/wasm) in a Web Worker. By default level by level (coarse first), each level shown
-// as soon as its bytes are in, replacing (and freeing) the one before. With `mode=view` (chunked
-// files, format version 5) view-dependently: as the camera moves, the chunks the view needs at
-// `px` pixels of screen-space error (fine where it looks, coarse farther away, none out of view)
-// are fetched and shown as one crack-free mesh. Orbit controls; a panel with bytes fetched,
-// requests, levels or chunks, faces, frame rate and memory.
+// module (crates/wasm) in a Web Worker. A chunked file (format version 5, more chunks than levels)
+// streams view-dependently: after a coarse first frame, each camera position fetches the chunks
+// its view needs at `px` pixels of screen-space error (fine where it looks, coarse farther away,
+// none out of view) and shows them as one crack-free mesh. Other files, or `mode=levels`, stream
+// level by level (coarse first), each level shown as soon as its bytes are in, replacing (and
+// freeing) the one before. Orbit controls; a panel with bytes fetched, requests, level, chunks,
+// faces, frame rate and memory.
 //
-//   mrq.html?src=URL.mrq[&budget=MB][&mode=view][&px=N][&cam=JSON]
+//   mrq.html?src=URL.mrq[&budget=MB][&mode=auto|view|levels][&px=N][&cam=JSON]
 //       budget: decoding memory (levels) or file bytes held (view), MiB (default 512)
 //       px: the largest screen-space error in view mode, pixels (default 1)
 //       cam: the first view's camera in view mode, JSON {position, target, up, fov_y_degrees}
@@ -22,7 +23,9 @@ const BACKGROUND = new THREE.Color(0x1e2630);
 const params = new URLSearchParams(location.search);
 const src = params.get('src');
 const budgetMiB = Number(params.get('budget') || 512);
-const viewMode = params.get('mode') === 'view';
+// View mode for chunked files unless `mode=levels`; the worker says which it chose.
+const modeAsked = params.get('mode') || 'auto';
+let viewMode = modeAsked === 'view';
 const pixelError = Number(params.get('px') || 1);
 // `cam={"position": [...], "target": [...], "up": [...], "fov_y_degrees": N}`: the first view.
 const startCamera = params.get('cam') ? JSON.parse(params.get('cam')) : null;
@@ -344,6 +347,7 @@ async function dracoDecoder(wasmBinary) {
 
 // View mode: frames the camera on the file's chunk boxes, then a coarse first cut and the real one.
 function openView(msg) {
+  viewMode = true;
   state.info = { levels: [], levelCount: msg.levelCount, chunks: msg.chunks, mode: 'view' };
   const b = msg.bounds;
   const min = new THREE.Vector3(b[0], b[1], b[2]), max = new THREE.Vector3(b[3], b[4], b[5]);
@@ -402,7 +406,7 @@ function main() {
     }
   };
   state.start = performance.now();
-  worker.postMessage({ type: 'open', url: new URL(src, location.href).href, budget: state.budget, mode: viewMode ? 'view' : 'levels' });
+  worker.postMessage({ type: 'open', url: new URL(src, location.href).href, budget: state.budget, mode: modeAsked });
   updatePanel();
 }
 

@@ -303,6 +303,7 @@ fn the_viewer_refines_the_dragons_head_view_dependently() {
     assert!(run.status.success(), "check-mrq.mjs failed: {}\n{}", text(&run.stdout), text(&run.stderr));
     let view = &r["view"];
     assert_eq!(view["error"], serde_json::Value::Null, "{view}");
+    assert_eq!(view["mode"], "view", "a chunked file is viewed view-dependently by default");
     assert_eq!(view["consoleErrors"], serde_json::json!([]));
     let close = &view["closeUp"];
     let cut = &close["cut"];
