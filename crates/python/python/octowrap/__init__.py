@@ -602,7 +602,9 @@ def decimate(
     A hierarchy with ``max_error`` alone, or with ``view`` (a camera: a dict with ``position``,
     ``target``, ``up``, ``fov_y_degrees``, ``viewport_height_px``, ``pixel_error``, or the path of
     such a JSON file), is cut through its levels instead: each region takes the coarsest level
-    within the bound, stitched crack-free; with ``target_faces`` or ``ratio`` its finest level is
+    within the bound, stitched crack-free (face by face through the decoded hierarchy, as
+    ``octowrap decimate --cut faces`` does; the command line's default for a chunked file reads
+    and cuts whole chunks instead); with ``target_faces`` or ``ratio`` its finest level is
     decimated. The GIL is released while it runs.
 
     >>> import numpy as np, octowrap
