@@ -297,16 +297,16 @@ fn decode_chunk(
 
 /// Decodes the chunks `todo` (indices into `chunks`, all of one level) from their stored bytes
 /// (`stored(i)`), in parallel, each against its parent in `parents` (by chunk index).
-fn decode_level_chunks<'a>(
+fn decode_level_chunks<'a, 'p>(
     chunks: &[ChunkEntry],
     todo: &[u32],
     stored: impl Fn(u32) -> &'a [u8] + Sync,
-    parents: &HashMap<u32, PlainLevel>,
+    parents: impl Fn(u32) -> Option<&'p PlainLevel> + Sync,
     gi: GridInfo,
 ) -> Result<Vec<PlainLevel>, DecodeError> {
     let one = |buffers: &mut ChunkBuffers, &ci: &u32| {
         let c = &chunks[ci as usize];
-        let parent = if c.parent == NO_CHUNK { None } else { parents.get(&c.parent) };
+        let parent = if c.parent == NO_CHUNK { None } else { parents(c.parent) };
         if c.parent != NO_CHUNK && parent.is_none() {
             return Err(DecodeError::Invalid {
                 place: Where::Chunk(u32::from(c.level), ci),
@@ -444,19 +444,32 @@ fn check_count(k: u32, lv: PlainLevel, expect: Option<u32>) -> Result<PlainLevel
     }
 }
 
-/// Decodes level `k` of a version 5 file from all of its stored bytes (`stored`, starting at the
-/// level's offset): its chunks in parallel, then merged. `parents`: the level above's decoded
-/// chunks by index, with their merged face offsets; replaced by this level's.
-pub fn decode_whole_level(
+/// One level of a version 5 file decoded chunk by chunk, before the merge (spec §11.4): the
+/// parents of the next level's chunks.
+pub struct LevelParts {
+    k: u32,
+    /// The level's chunks (indices), in index order, and their decoded blocks.
+    ids: Vec<u32>,
+    parts: Vec<PlainLevel>,
+    /// Chunk index → position in `parts`.
+    at: HashMap<u32, usize>,
+    /// Chunk index → its first face in the merged level.
+    face_at: HashMap<u32, u32>,
+    /// Per part: where its parent chunk's faces start in the merged level above.
+    offsets: Vec<u32>,
+}
+
+/// Decodes the chunks of level `k` of a version 5 file from all of its stored bytes (`stored`,
+/// starting at the level's offset), in parallel, each against its parent chunk in `above` (the
+/// level above, decoded the same way).
+pub fn decode_level_parts(
     pre: &Preamble,
     k: u32,
     stored: &[u8],
-    parents: &mut (HashMap<u32, PlainLevel>, HashMap<u32, u32>),
-    keep: bool,
-) -> Result<PlainLevel, DecodeError> {
+    above: Option<&LevelParts>,
+) -> Result<LevelParts, DecodeError> {
     let e = &pre.levels[k as usize];
-    let gi = grid_info(pre);
-    let todo: Vec<u32> =
+    let ids: Vec<u32> =
         pre.chunks.iter().enumerate().filter(|(_, c)| u32::from(c.level) == k).map(|(i, _)| i as u32).collect();
     let chunks = &pre.chunks;
     let slice = |ci: u32| {
@@ -464,33 +477,40 @@ pub fn decode_whole_level(
         let from = (c.offset - e.offset) as usize;
         &stored[from..from + c.stored_size as usize]
     };
-    let parts = decode_level_chunks(chunks, &todo, slice, &parents.0, gi)?;
-    let offsets: Vec<u32> = todo
+    let parent = |c: u32| above.and_then(|a| a.at.get(&c).map(|&i| &a.parts[i]));
+    let parts = decode_level_chunks(chunks, &ids, slice, parent, grid_info(pre))?;
+    let offsets: Vec<u32> = ids
         .iter()
         .map(|&ci| {
             let p = chunks[ci as usize].parent;
-            if p == NO_CHUNK { 0 } else { parents.1.get(&p).copied().unwrap_or(0) }
+            above.and_then(|a| a.face_at.get(&p)).copied().unwrap_or(0)
         })
         .collect();
     let mut face_at = HashMap::new();
     let mut f = 0u32;
-    for (&ci, part) in todo.iter().zip(&parts) {
+    for (&ci, part) in ids.iter().zip(&parts) {
         face_at.insert(ci, f);
         f += part.parents.len() as u32;
     }
-    let cell_shift = k - e.cell_depth;
-    if !keep {
-        parents.0.clear();
-        return merge_chunks(k, parts, &offsets, cell_shift, Some(e.vertex_count));
+    let at = ids.iter().enumerate().map(|(i, &c)| (c, i)).collect();
+    Ok(LevelParts { k, ids, parts, at, face_at, offsets })
+}
+
+/// The level of `lp`'s chunks, merged (spec §11.4); `lp` stays the next level's parent.
+pub fn merge_level(pre: &Preamble, lp: &LevelParts) -> Result<PlainLevel, DecodeError> {
+    let e = &pre.levels[lp.k as usize];
+    let shift = lp.k - e.cell_depth;
+    if lp.parts.len() == 1 && lp.offsets[0] == 0 {
+        return merge_chunks(lp.k, lp.parts.clone(), &lp.offsets, shift, Some(e.vertex_count));
     }
-    let merged = if parts.len() == 1 && offsets[0] == 0 {
-        merge_chunks(k, parts.clone(), &offsets, cell_shift, Some(e.vertex_count))?
-    } else {
-        merge_parts(k, &parts, &offsets, cell_shift, Some(e.vertex_count))?
-    };
-    parents.0 = todo.into_iter().zip(parts).collect();
-    parents.1 = face_at;
-    Ok(merged)
+    merge_parts(lp.k, &lp.parts, &lp.offsets, shift, Some(e.vertex_count))
+}
+
+/// [`merge_level`] of the last level decoded: its chunks move into the result.
+pub fn merge_last_level(pre: &Preamble, lp: LevelParts) -> Result<PlainLevel, DecodeError> {
+    let e = &pre.levels[lp.k as usize];
+    debug_assert_eq!(lp.ids.len(), lp.parts.len());
+    merge_chunks(lp.k, lp.parts, &lp.offsets, lp.k - e.cell_depth, Some(e.vertex_count))
 }
 
 /// A byte-range source: a file, a buffer, or an HTTP client that answers range requests.
@@ -762,7 +782,8 @@ impl<S: RangeSource> ChunkedMrq<S> {
         while i < need.len() {
             let k = self.chunks[need[i] as usize].level;
             let j = i + need[i..].iter().take_while(|&&c| self.chunks[c as usize].level == k).count();
-            let parts = decode_level_chunks(&self.chunks, &need[i..j], |c| &bytes[&c][..], done, gi)?;
+            let held: &HashMap<u32, PlainLevel> = done;
+            let parts = decode_level_chunks(&self.chunks, &need[i..j], |c| &bytes[&c][..], |c| held.get(&c), gi)?;
             done.extend(need[i..j].iter().copied().zip(parts));
             i = j;
         }

@@ -155,7 +155,9 @@ fn decode_levels(
         })?),
     };
     let chunked = h.version >= container::CHUNKED_VERSION;
-    let mut chunk_parents = Default::default();
+    // Version 5: the level above, decoded chunk by chunk (the next level's parents), merged and
+    // converted while the next level's chunks decode.
+    let mut above: Option<crate::chunked::LevelParts> = None;
     for k in 0..=last {
         let e = &pre.levels[k as usize];
         let stored = &mut buffers.stored;
@@ -170,8 +172,16 @@ fn decode_levels(
             });
         }
         if chunked {
-            let lv = crate::chunked::decode_whole_level(pre, k, stored, &mut chunk_parents, k < last)?;
-            out.levels.push(into_level(lv, origin, h.step));
+            let stored: &[u8] = stored;
+            let (this, merged) = rayon::join(
+                || crate::chunked::decode_level_parts(pre, k, stored, above.as_ref()),
+                || above.as_ref().map(|a| crate::chunked::merge_level(pre, a).map(|lv| into_level(lv, origin, h.step))),
+            );
+            // The level above's error first, as a decoder taking the levels in order finds it.
+            if let Some(m) = merged {
+                out.levels.push(m?);
+            }
+            above = Some(this?);
             continue;
         }
         let payload = &mut buffers.payload;
@@ -183,6 +193,9 @@ fn decode_levels(
         }
     }
     out.levels.extend(parent.map(|p| into_level(p, origin, h.step)));
+    if let Some(a) = above {
+        out.levels.push(into_level(crate::chunked::merge_last_level(pre, a)?, origin, h.step));
+    }
     if last + 1 == n {
         reject_trailing_bytes(r, &pre.levels[last as usize], last)?;
     }

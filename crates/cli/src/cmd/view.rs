@@ -23,11 +23,15 @@ use anyhow::Context;
 
 /// Open the MRQ web viewer on a file: serve it on localhost and open the page in a browser.
 ///
-/// The page (tools/viewer/mrq.html, embedded in this binary) streams the file level by level with
-/// HTTP range requests, coarsest first, decodes it in WebAssembly in a Web Worker, and draws it
-/// with three.js: drag to orbit, scroll to zoom. Its panel shows the bytes fetched, levels, faces
-/// and frame rate. The same page works from any static host that answers range requests (nginx,
-/// object storage): open mrq.html?src=URL.mrq there.
+/// The page (tools/viewer/mrq.html, embedded in this binary) fetches the file with HTTP range
+/// requests, decodes it in WebAssembly in a Web Worker, and draws it with three.js: drag to orbit,
+/// scroll to zoom. A chunked file (format version 5, as `reconstruct` writes) is shown
+/// view-dependently: a coarse first frame, then, wherever the camera goes, the chunks the view
+/// needs at one pixel of screen-space error, as one crack-free mesh; other files stream level by
+/// level, coarsest first (add &mode=levels to the URL for that on any file, &px=N for another
+/// error). Its panel shows the bytes fetched, level, chunks, faces and frame rate. The same page
+/// works from any static host that answers range requests (nginx, object storage): open
+/// mrq.html?src=URL.mrq there.
 ///
 /// Prints the page's URL on standard output, then serves until stopped (Ctrl-C).
 ///
