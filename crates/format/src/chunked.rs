@@ -586,6 +586,8 @@ pub struct ChunkedMrq<S> {
     chunks: Vec<ChunkEntry>,
     requests: u64,
     bytes_read: u64,
+    /// The last cut's chunks and their ancestors, decoded (the next cut reuses them).
+    decoded: HashMap<u32, PlainLevel>,
 }
 
 /// What a [`ChunkedMrq`] read.
@@ -686,7 +688,7 @@ impl<S: RangeSource> ChunkedMrq<S> {
         let pre = container::parse_rest(header, &head, &rest, limits)?;
         let chunks = if pre.header.version >= CHUNKED_VERSION { pre.chunks.clone() } else { whole_levels(&pre) };
         let bytes_read = HEADER_SIZE as u64 + rest_len;
-        Ok(Self { source, pre, chunks, requests, bytes_read })
+        Ok(Self { source, pre, chunks, requests, bytes_read, decoded: HashMap::new() })
     }
 
     /// The file's description.
@@ -793,7 +795,9 @@ impl<S: RangeSource> ChunkedMrq<S> {
     /// The crack-free mesh of the cut `drawn` (spec §11.5): chunks no one of which refines
     /// another, fetched with their ancestors (each chunk's bytes once), stitched by the crack
     /// rule, which replaces a chunk by the chunks refining it where it meets another level
-    /// without a shared seam ([`crate::stitch`]).
+    /// without a shared seam ([`crate::stitch`]). The chunks of the cut and their ancestors stay
+    /// decoded until the next cut, which reads and decodes only the chunks it adds (a view that
+    /// moves a little decodes little).
     pub fn cut(&mut self, drawn: &[u32]) -> Result<crate::Cut, crate::CutError> {
         self.cut_where(drawn, |_| true)
     }
@@ -828,7 +832,7 @@ impl<S: RangeSource> ChunkedMrq<S> {
                 children[c.parent as usize].push(i as u32);
             }
         }
-        let mut done = HashMap::new();
+        let mut done = std::mem::take(&mut self.decoded);
         let mut refined = 0u32;
         let chunked = self.pre.header.version >= CHUNKED_VERSION;
         let h = self.pre.header.clone();
@@ -841,7 +845,10 @@ impl<S: RangeSource> ChunkedMrq<S> {
             }
         };
         loop {
-            self.decode_into(&drawn, &mut done)?;
+            if let Err(e) = self.decode_into(&drawn, &mut done) {
+                self.decoded = done;
+                return Err(e.into());
+            }
             let parts: Vec<crate::stitch::Part<'_>> = drawn
                 .iter()
                 .map(|&c| {
@@ -871,9 +878,11 @@ impl<S: RangeSource> ChunkedMrq<S> {
             refine.sort_unstable();
             refine.dedup();
             if refine.is_empty() {
+                let face_chunks = s.face_parts.iter().map(|&p| parts[p as usize].chunk).collect();
+                drop(parts);
+                self.keep_decoded(&drawn, done);
                 let mut mesh = Mesh::from_positions(s.positions);
                 mesh.faces = s.faces;
-                let face_chunks = s.face_parts.iter().map(|&p| parts[p as usize].chunk).collect();
                 return Ok(crate::Cut {
                     mesh,
                     face_chunks,
@@ -889,6 +898,19 @@ impl<S: RangeSource> ChunkedMrq<S> {
             drawn.extend(refine.iter().flat_map(|&c| children[c as usize].iter().copied()).filter(|&c| keep(c)));
             drawn.sort_unstable();
         }
+    }
+
+    /// Keeps the chunks `drawn` and their ancestors of `done` decoded for the next cut.
+    fn keep_decoded(&mut self, drawn: &[u32], mut done: HashMap<u32, PlainLevel>) {
+        let mut keep = std::collections::HashSet::new();
+        for &c in drawn {
+            let mut a = c;
+            while (a as usize) < self.chunks.len() && keep.insert(a) {
+                a = self.chunks[a as usize].parent;
+            }
+        }
+        done.retain(|c, _| keep.contains(c));
+        self.decoded = done;
     }
 
     /// The faces of level `k` inside `region` (the chunks whose boxes meet it, whole; all of the

@@ -279,3 +279,22 @@ fn a_selection_that_is_no_cut_is_refused() {
         assert!(e.contains(says), "{drawn:?}: {e}");
     }
 }
+
+#[test]
+fn a_second_cut_reuses_the_chunks_the_first_decoded() {
+    let h = cube_hierarchy(6, NO_JOINS, 6);
+    let bytes = encode(&h, &v5(Quantization::Bits(14), 2)).unwrap();
+    let mut reader = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+    let chunks = reader.chunks();
+    let drawn = random_cut(&chunks, &mut Rng::new(8));
+    let first = reader.cut(&drawn).unwrap();
+    let read = reader.stats();
+    let again = reader.cut(&drawn).unwrap();
+    assert_eq!(reader.stats(), read, "nothing is read again");
+    assert_eq!((again.mesh, again.drawn), (first.mesh.clone(), first.drawn.clone()));
+    // Another cut reads only the chunks it adds, and gives what a fresh reader gives.
+    let other = random_cut(&chunks, &mut Rng::new(9));
+    let cut = reader.cut(&other).unwrap();
+    let fresh = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap().cut(&other).unwrap();
+    assert_eq!((cut.mesh, cut.drawn), (fresh.mesh, fresh.drawn));
+}
