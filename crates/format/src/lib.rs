@@ -17,7 +17,29 @@
 //! box, geometric error). [`ChunkedMrq`] reads the preamble in two range requests and then only the
 //! chunks asked for and their ancestors, over any [`RangeSource`] (a file through [`SeekSource`],
 //! a buffer, an HTTP client); the chunks of a level decode in parallel, with the same output
-//! whatever the thread count.
+//! whatever the thread count. A view takes chunks of different levels, fine where it looks:
+//! [`select`] chooses them for a camera or an error bound from the index alone, and
+//! [`ChunkedMrq::cut`] fetches them and makes their mesh crack-free by the crack rule of spec
+//! §11.5 (shared seam vertices, T-junctions turned into polygon corners, and a chunk refined
+//! where two levels do not fit).
+//!
+//! ```
+//! use octowrap_format::{ChunkedMrq, EncodeOptions, Limits, encode};
+//! use octowrap_format::synthetic::{Edits, cube_hierarchy};
+//!
+//! let mut opts = EncodeOptions::default();
+//! opts.chunk_shift = 1; // small chunks for this small hierarchy
+//! let bytes = encode(&cube_hierarchy(5, Edits::none(), 1), &opts).unwrap();
+//! let mut file = ChunkedMrq::open(&bytes[..], &Limits::default()).unwrap();
+//! let chunks = file.chunks();
+//! // Level 3 everywhere, but level 4 in the first level-3 chunk's cell: a cut of two levels.
+//! let level3: Vec<u32> = (0..chunks.len() as u32).filter(|&c| chunks[c as usize].level == 3).collect();
+//! let mut drawn = level3[1..].to_vec();
+//! drawn.extend((0..chunks.len() as u32).filter(|&c| chunks[c as usize].parent == Some(level3[0])));
+//! let cut = file.cut(&drawn).unwrap();
+//! assert_eq!(cut.unresolved, 0);
+//! assert!(cut.mesh.faces.len() > 0);
+//! ```
 //!
 //! ```
 //! use octowrap_format::{decode, encode, DecodeOptions, EncodeOptions};
@@ -89,6 +111,7 @@
 //! * `placement` — Appendix A "Line placement": moving vertices onto their prediction lines.
 //! * `chunks`, `chunked` — §11 Chunks: the encoder's plan of cells and chunks; the chunk index,
 //!   the parallel decode and merge of a level's chunks, and [`ChunkedMrq`].
+//! * `select`, `stitch` — §11.5 Cuts: which chunks a view needs, and the crack rule.
 
 mod block;
 mod bytes;
