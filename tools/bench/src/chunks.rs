@@ -20,7 +20,7 @@ use octowrap_decimate::Camera;
 use octowrap_decimate::chunks::{encode_measured, in_view, select_cover_for_view, select_for_view};
 use octowrap_format::{
     ChunkInfo, ChunkedMrq, CountingSource, DecodeOptions, EncodeOptions, Limits, Quantization, decode_bytes,
-    place_on_prediction_lines,
+    encode_with_stats, place_on_prediction_lines,
 };
 use octowrap_mesh::{Hierarchy, Level};
 use octowrap_recon::MaxLevel;
@@ -61,6 +61,9 @@ struct Model {
     /// Version 5: shift, bytes, encode (with the errors' measurement) seconds, and whether the
     /// file decodes to the version 4 file's levels.
     v5: Vec<(u32, Vec<u8>, f64, bool)>,
+    /// Topology and geometry bytes (each zstd-compressed alone, summed over chunks): version 4,
+    /// then per shift.
+    split: Vec<(usize, usize)>,
     /// The version 4 file's finest level, decoded, as PLY (for Draco).
     ply: PathBuf,
 }
@@ -101,6 +104,13 @@ fn model(name: &'static str, mut h: Hierarchy, tmp: &Path) -> Option<Model> {
             (shift, bytes, secs, same)
         })
         .collect();
+    let split = std::iter::once(options(4, 0))
+        .chain(SHIFTS.iter().map(|&shift| options(5, shift)))
+        .map(|o| {
+            let (_, stats) = encode_with_stats(&h, &o).expect("encodes");
+            (stats.iter().map(|l| l.topology).sum(), stats.iter().map(|l| l.geometry).sum())
+        })
+        .collect();
     let ply = tmp.join(format!("{name}.ply"));
     let finest = &reference.levels.last().expect("levels").mesh;
     if let Err(e) = octowrap_io::write_path(&ply, finest, &octowrap_io::WriteOptions::default()) {
@@ -112,6 +122,7 @@ fn model(name: &'static str, mut h: Hierarchy, tmp: &Path) -> Option<Model> {
         faces: reference.levels.iter().map(|l| l.mesh.faces.len()).collect(),
         v4,
         v5,
+        split,
         ply,
     })
 }
@@ -158,10 +169,29 @@ pub fn report() {
     for m in &models {
         per_level(m);
     }
+    split(&models);
     if let Some(dragon) = models.iter().find(|m| m.name == "dragon") {
         view(dragon);
     }
     decode_speed(&models, draco.as_deref());
+}
+
+/// Where chunking's bytes go: the topology and geometry streams, each compressed alone.
+fn split(models: &[Model]) {
+    outln!("Where the bytes go: topology and geometry streams, each zstd-compressed on its own (summed over");
+    outln!("levels and chunks; the stored frames compress them together), and their change over version 4.");
+    outln!();
+    outln!("| hierarchy | file | topology bytes | change | geometry bytes | change |");
+    outln!("|---|---|---|---|---|---|");
+    for m in models {
+        let (t4, g4) = m.split[0];
+        let change = |a: usize, b: usize| format!("{:+.1} %", (a as f64 / b.max(1) as f64 - 1.0) * 100.0);
+        outln!("| {} | version 4 | {t4} | | {g4} | |", m.name);
+        for ((shift, ..), &(t, g)) in m.v5.iter().zip(&m.split[1..]) {
+            outln!("| | version 5, shift {shift} | {t} | {} | {g} | {} |", change(t, t4), change(g, g4));
+        }
+    }
+    outln!();
 }
 
 /// The size table and its headlines.
