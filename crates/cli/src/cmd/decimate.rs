@@ -398,9 +398,16 @@ fn run_chunk_cut(args: &Args, camera: Option<&Camera>, mrq_out: bool, to: Option
     let info = reader.info();
     let Some(finest) = info.levels.last() else { bail!("{} holds no levels", args.input.display()) };
     let input_faces = finest.face_count as usize;
-    let (lo, hi) = chunks.iter().fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), c| {
-        ([0, 1, 2].map(|a| lo[a].min(f64::from(c.bbox_min[a]))), [0, 1, 2].map(|a| hi[a].max(f64::from(c.bbox_max[a]))))
-    });
+    // The finest level's box (its chunks' boxes hold its vertices), as the face-level cut measures
+    // a relative error against the finest level's diagonal.
+    let finest_level = (info.levels.len() - 1) as u32;
+    let (lo, hi) =
+        chunks.iter().filter(|c| c.level == finest_level).fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), c| {
+            (
+                [0, 1, 2].map(|a| lo[a].min(f64::from(c.bbox_min[a]))),
+                [0, 1, 2].map(|a| hi[a].max(f64::from(c.bbox_max[a]))),
+            )
+        });
     let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f64>().sqrt();
     let selection = match (camera, args.max_error) {
         // The camera file holds no aspect ratio: the view is taken as 16:9, and no chunk is
