@@ -103,3 +103,94 @@ pub fn in_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64) -> Vec
 pub fn select_cover_for_view(chunks: &[ChunkInfo], camera: &crate::Camera, aspect: f64) -> ViewSelection {
     octowrap_format::select::select_cover_for_view(chunks, &camera.view(), aspect)
 }
+
+/// What a cut through a chunked file keeps coarse.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ChunkCriterion {
+    /// A camera's screen-space error, for the whole surface (no chunk culled: those out of view
+    /// stay at the level where they leave it); the view is taken as 16:9.
+    View(crate::Camera),
+    /// Every drawn chunk within this error of the finest level (a length, or a share of the
+    /// finest level's diagonal).
+    MaxError(crate::ErrorBound),
+}
+
+/// What a cut through a chunked file read and drew (`octowrap decimate --json`'s `chunk_cut`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ChunkCutReport {
+    /// Chunks drawn, after the crack rule.
+    pub chunks_drawn: usize,
+    /// Chunks the crack rule replaced by the chunks refining them.
+    pub chunks_refined: u32,
+    /// Seams the crack rule could not close (the coarser chunk has no children).
+    pub unresolved_seams: u32,
+    /// Faces per level, coarsest first.
+    pub faces_per_level: Vec<usize>,
+    /// The largest geometric error of a drawn chunk (model units), as stored.
+    pub max_error: f64,
+    /// Bytes read from the file.
+    pub bytes_read: u64,
+    /// The file's size.
+    pub file_bytes: u64,
+    /// Read requests.
+    pub requests: u64,
+}
+
+/// A cut through a chunked file: its mesh and report, and the finest level's face count and
+/// diagonal (what a relative error is measured against).
+#[derive(Clone, Debug)]
+pub struct ChunkCut {
+    /// The crack-free mesh.
+    pub mesh: octowrap_mesh::Mesh,
+    /// What it read and drew.
+    pub report: ChunkCutReport,
+    /// Faces of the file's finest level.
+    pub finest_faces: usize,
+    /// The finest level's bounding-box diagonal (its chunks' boxes).
+    pub diagonal: f64,
+}
+
+/// Cuts the chunked file behind `reader` (of `file_bytes` bytes) for `criterion`: the index's
+/// geometric errors choose the chunks, only they and their ancestors are read, and the crack
+/// rule stitches them (spec §11.5).
+pub fn cut_chunks<S: octowrap_format::RangeSource>(
+    reader: &mut ChunkedMrq<S>,
+    criterion: &ChunkCriterion,
+    file_bytes: u64,
+) -> Result<ChunkCut, octowrap_format::CutError> {
+    let chunks = reader.chunks();
+    let levels = reader.info().levels.len();
+    let finest = levels.saturating_sub(1) as u32;
+    let finest_faces = chunks.iter().filter(|c| c.level == finest).map(|c| c.face_count as usize).sum();
+    let (lo, hi) = chunks.iter().filter(|c| c.level == finest).fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), c| {
+        ([0, 1, 2].map(|a| lo[a].min(f64::from(c.bbox_min[a]))), [0, 1, 2].map(|a| hi[a].max(f64::from(c.bbox_max[a]))))
+    });
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f64>().sqrt();
+    let selection = match criterion {
+        ChunkCriterion::View(c) => select_cover_for_view(&chunks, c, 16.0 / 9.0),
+        ChunkCriterion::MaxError(crate::ErrorBound::Absolute(e)) => select_for_error(&chunks, *e),
+        ChunkCriterion::MaxError(crate::ErrorBound::Relative(r)) => select_for_error(&chunks, r * diagonal),
+    };
+    let cut = reader.cut(&selection.drawn)?;
+    let read = reader.stats();
+    let mut faces_per_level = vec![0usize; levels];
+    for &c in &cut.face_chunks {
+        faces_per_level[chunks[c as usize].level as usize] += 1;
+    }
+    let max_error = cut
+        .drawn
+        .iter()
+        .map(|&c| f64::from(chunks[c as usize].geometric_error.unwrap_or(f32::NAN)))
+        .fold(0.0, f64::max);
+    let report = ChunkCutReport {
+        chunks_drawn: cut.drawn.len(),
+        chunks_refined: cut.refined,
+        unresolved_seams: cut.unresolved,
+        faces_per_level,
+        max_error,
+        bytes_read: read.bytes,
+        file_bytes,
+        requests: read.requests,
+    };
+    Ok(ChunkCut { mesh: cut.mesh, report, finest_faces, diagonal })
+}

@@ -132,3 +132,64 @@ pub fn decimate<'py>(
     let (mesh, report) = run.map_err(|e| bad(e.to_string()))?;
     Ok((meshes::mesh_out(py, mesh), report.to_string()))
 }
+
+/// Cuts a chunked MRQ file (`raw`, format version 5) through whole chunks, as `octowrap decimate
+/// FILE.mrq --view` or `--max-error` does by default: the chunks chosen by their geometric errors
+/// for the camera `view` (JSON) or the error bound, read alone, stitched crack-free. Returns the
+/// mesh and the command's report (without the file names) as JSON.
+#[pyfunction]
+#[pyo3(signature = (raw, max_error, max_error_relative, view, measure))]
+#[allow(clippy::needless_pass_by_value)]
+pub fn cut_chunks<'py>(
+    py: Python<'py>,
+    raw: Bound<'py, crate::mrq::RawMrq>,
+    max_error: Option<f64>,
+    max_error_relative: bool,
+    view: Option<String>,
+    measure: bool,
+) -> PyResult<(MeshTuple<'py>, String)> {
+    use octowrap_decimate::chunks::{ChunkCriterion, cut_chunks};
+    let raw = raw.get();
+    let path = raw.path().to_path_buf();
+    if raw.version() < 5 {
+        return Err(bad(format!(
+            "cut=\"chunks\" needs a chunked MRQ file (format version 5); {} is version {}",
+            path.display(),
+            raw.version()
+        )));
+    }
+    let criterion = match (view, max_error) {
+        (Some(text), None) => ChunkCriterion::View(Camera::from_json(&text).map_err(|e| bad(e.to_string()))?),
+        (None, Some(e)) if e >= 0.0 && e.is_finite() => {
+            ChunkCriterion::MaxError(if max_error_relative { ErrorBound::Relative(e) } else { ErrorBound::Absolute(e) })
+        }
+        (None, Some(_)) => return Err(bad("max_error must be zero or positive")),
+        _ => return Err(bad("a chunk cut takes view or max_error, one of them")),
+    };
+    let run = py.detach(|| -> Result<(Mesh, Value), String> {
+        let start = Instant::now();
+        let file = std::fs::File::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let file_bytes = file.metadata().map_or(0, |m| m.len());
+        let source = octowrap_format::SeekSource(std::io::BufReader::new(file));
+        let mut reader = octowrap_format::ChunkedMrq::open(source, &octowrap_format::Limits::default())
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let cut = cut_chunks(&mut reader, &criterion, file_bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut report = Map::new();
+        report.insert("mode".into(), json!("chunk cut"));
+        report.insert("input_faces".into(), json!(cut.finest_faces));
+        report.insert("output_faces".into(), json!(cut.mesh.faces.len()));
+        report.insert("output_vertices".into(), json!(cut.mesh.vertex_count()));
+        report.insert("chunk_cut".into(), json!(cut.report));
+        report.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
+        if measure {
+            let h = octowrap_format::read_path(&path, &octowrap_format::DecodeOptions::default())
+                .map_err(|e| format!("{}: {e}", path.display()))?
+                .hierarchy;
+            let finest = &h.levels.last().ok_or("the file holds no levels")?.mesh;
+            report.insert("measured".into(), json!(distance(finest, &cut.mesh, &Sampling::default())));
+        }
+        Ok((cut.mesh, Value::Object(report)))
+    });
+    let (mesh, report) = run.map_err(bad)?;
+    Ok((meshes::mesh_out(py, mesh), report.to_string()))
+}

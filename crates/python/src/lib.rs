@@ -43,6 +43,7 @@ fn _octowrap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mrq::open_mrq, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(decimate::decimate, m)?)?;
+    m.add_function(wrap_pyfunction!(decimate::cut_chunks, m)?)?;
     m.add_function(wrap_pyfunction!(export::export_glb, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::export_tiles, m)?)?;
     m.add_function(wrap_pyfunction!(distance::distance, m)?)?;

@@ -17,6 +17,16 @@ pub struct RawMrq {
 }
 
 impl RawMrq {
+    /// The file's path.
+    pub fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+
+    /// Its format version.
+    pub fn version(&self) -> u16 {
+        self.info.version
+    }
+
     /// Decodes levels `0..=k` only (the decoder stops reading there), GIL released.
     fn prefix(&self, py: Python<'_>, k: usize) -> PyResult<octowrap_mesh::Hierarchy> {
         let n = self.info.levels.len();

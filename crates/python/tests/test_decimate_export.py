@@ -81,12 +81,25 @@ def test_cut_gives_the_command_line_bytes_and_report(tmp_path, hierarchy):
         # The face-level cut: the command line cuts a chunked file through whole chunks unless
         # asked for this one.
         report_cli = json.loads(run_cli("decimate", mrq, "-o", cli, "--json", "--cut", "faces", *args))
-        cut, report = octowrap.decimate(f, **kwargs)
+        cut, report = octowrap.decimate(f, cut="faces", **kwargs)
         octowrap.write(tmp_path / "py.ply", cut)
         assert (tmp_path / "py.ply").read_bytes() == cli.read_bytes(), args
         assert without_names(report) == without_names(report_cli), args
         assert report["mode"] == "cut" and sum(report["cut"]["faces_per_level"]) == report["output_faces"]
         assert octowrap.validate(cut.vertices, cut.faces, require=["watertight", "oriented"])["passed"], args
+    # By default a chunked file is cut through whole chunks, as the command line does.
+    for args, kwargs in [(["--max-error", "1%"], {"max_error": "1%"}), (["--view", tmp_path / "camera.json"], {"view": camera})]:
+        cli = tmp_path / "cli.ply"
+        report_cli = json.loads(run_cli("decimate", mrq, "-o", cli, "--json", *args))
+        cut, report = octowrap.decimate(f, **kwargs)
+        octowrap.write(tmp_path / "py.ply", cut)
+        assert (tmp_path / "py.ply").read_bytes() == cli.read_bytes(), args
+        assert without_names(report) == without_names(report_cli), args
+        assert report["mode"] == "chunk cut" and report["chunk_cut"]["bytes_read"] <= report["chunk_cut"]["file_bytes"]
+    with pytest.raises(ValueError, match="cut must be"):
+        octowrap.decimate(f, max_error=0.01, cut="some")
+    with pytest.raises(ValueError, match='cut="chunks" cuts an MrqFile'):
+        octowrap.decimate(hierarchy, max_error=0.01, cut="chunks")
     # With a face target the finest level is decimated, as the command line does with an MRQ file.
     report_cli = json.loads(run_cli("decimate", mrq, "-o", tmp_path / "cli.ply", "--json", "--ratio", "0.5"))
     small, report = octowrap.decimate(f, ratio=0.5)

@@ -187,7 +187,7 @@ struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     cut: Option<octowrap_decimate::CutReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    chunk_cut: Option<ChunkCutReport>,
+    chunk_cut: Option<octowrap_decimate::chunks::ChunkCutReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<octowrap_decimate::metrics::Distance>,
     seconds: f64,
@@ -364,92 +364,35 @@ fn run_cut(args: &Args, camera: Option<Camera>, h: &Hierarchy, input: &Mesh) -> 
     Ok((out.mesh, report))
 }
 
-/// What a cut through chunks read and drew.
-#[derive(Debug, Serialize)]
-struct ChunkCutReport {
-    /// Chunks drawn, after the crack rule.
-    chunks_drawn: usize,
-    /// Chunks the crack rule replaced by the chunks refining them.
-    chunks_refined: u32,
-    /// Seams the crack rule could not close (the coarser chunk has no children).
-    unresolved_seams: u32,
-    /// Faces per level, coarsest first.
-    faces_per_level: Vec<usize>,
-    /// The largest geometric error of a drawn chunk (model units).
-    max_error: f64,
-    /// Bytes read from the file, and its size.
-    bytes_read: u64,
-    file_bytes: u64,
-    /// Read requests.
-    requests: u64,
-}
-
 /// The chunked cut of a version 5 file: the index picks the chunks, only they and their
-/// ancestors are read, and the crack rule stitches them.
+/// ancestors are read, and the crack rule stitches them ([`octowrap_decimate::chunks::cut_chunks`]).
 fn run_chunk_cut(args: &Args, camera: Option<&Camera>, mrq_out: bool, to: Option<Format>) -> anyhow::Result<ExitCode> {
-    use octowrap_decimate::chunks::{select_cover_for_view, select_for_error};
+    use octowrap_decimate::chunks::{ChunkCriterion, cut_chunks};
     let file = std::fs::File::open(&args.input).with_context(|| format!("opening {}", args.input.display()))?;
     let file_bytes = file.metadata().map_or(0, |m| m.len());
     let source = octowrap_format::SeekSource(std::io::BufReader::new(file));
     let start = std::time::Instant::now();
     let mut reader = octowrap_format::ChunkedMrq::open(source, &octowrap_format::Limits::default())
         .with_context(|| format!("reading {}", args.input.display()))?;
-    let chunks = reader.chunks();
-    let info = reader.info();
-    let Some(finest) = info.levels.last() else { bail!("{} holds no levels", args.input.display()) };
-    let input_faces = finest.face_count as usize;
-    // The finest level's box (its chunks' boxes hold its vertices), as the face-level cut measures
-    // a relative error against the finest level's diagonal.
-    let finest_level = (info.levels.len() - 1) as u32;
-    let (lo, hi) =
-        chunks.iter().filter(|c| c.level == finest_level).fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), c| {
-            (
-                [0, 1, 2].map(|a| lo[a].min(f64::from(c.bbox_min[a]))),
-                [0, 1, 2].map(|a| hi[a].max(f64::from(c.bbox_max[a]))),
-            )
-        });
-    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f64>().sqrt();
-    let selection = match (camera, args.max_error) {
-        // The camera file holds no aspect ratio: the view is taken as 16:9, and no chunk is
-        // culled (those out of view stay at the level where they leave it).
-        (Some(c), _) => select_cover_for_view(&chunks, c, 16.0 / 9.0),
-        (None, Some(ErrorBound::Absolute(e))) => select_for_error(&chunks, e),
-        (None, Some(ErrorBound::Relative(r))) => select_for_error(&chunks, r * diagonal),
+    let criterion = match (camera, args.max_error) {
+        (Some(c), _) => ChunkCriterion::View(*c),
+        (None, Some(e)) => ChunkCriterion::MaxError(e),
         (None, None) => bail!("a hierarchy cut needs --max-error or --view"),
     };
-    let pb = progress::spinner(format!("cutting through {} of {} chunks", selection.drawn.len(), chunks.len()));
-    let cut = reader.cut(&selection.drawn);
+    let pb = progress::spinner(format!("cutting through the chunks of {}", args.input.display()));
+    let cut = cut_chunks(&mut reader, &criterion, file_bytes);
     pb.finish_and_clear();
     let cut = cut.with_context(|| format!("cutting {}", args.input.display()))?;
-    let read = reader.stats();
-    let mut faces_per_level = vec![0usize; info.levels.len()];
-    for &c in &cut.face_chunks {
-        faces_per_level[chunks[c as usize].level as usize] += 1;
-    }
-    let max_error = cut
-        .drawn
-        .iter()
-        .map(|&c| f64::from(chunks[c as usize].geometric_error.unwrap_or(f32::NAN)))
-        .fold(0.0, f64::max);
     let mut report = Report {
         input: args.input.display().to_string(),
         output: args.output.display().to_string(),
         mode: "chunk cut",
-        input_faces,
+        input_faces: cut.finest_faces,
         output_faces: cut.mesh.faces.len(),
         output_vertices: cut.mesh.vertex_count(),
         decimate: None,
         cut: None,
-        chunk_cut: Some(ChunkCutReport {
-            chunks_drawn: cut.drawn.len(),
-            chunks_refined: cut.refined,
-            unresolved_seams: cut.unresolved,
-            faces_per_level,
-            max_error,
-            bytes_read: read.bytes,
-            file_bytes,
-            requests: read.requests,
-        }),
+        chunk_cut: Some(cut.report.clone()),
         measured: None,
         seconds: start.elapsed().as_secs_f64(),
     };
@@ -460,7 +403,7 @@ fn run_chunk_cut(args: &Args, camera: Option<&Camera>, mrq_out: bool, to: Option
         pb.finish_and_clear();
     }
     write(args, mrq_out, to, &cut.mesh)?;
-    print_summary(&report, diagonal);
+    print_summary(&report, cut.diagonal);
     if args.json {
         let json = serde_json::to_string_pretty(&report)?;
         crate::out::stdout(|w| writeln!(w, "{json}"))?;

@@ -579,6 +579,7 @@ def decimate(
     lock_border: bool = False,
     quads: str = "auto",
     measure: bool = False,
+    cut: str = "auto",
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Decimates a mesh, or cuts a hierarchy adaptively, as ``octowrap decimate`` does.
 
@@ -602,10 +603,13 @@ def decimate(
     A hierarchy with ``max_error`` alone, or with ``view`` (a camera: a dict with ``position``,
     ``target``, ``up``, ``fov_y_degrees``, ``viewport_height_px``, ``pixel_error``, or the path of
     such a JSON file), is cut through its levels instead: each region takes the coarsest level
-    within the bound, stitched crack-free (face by face through the decoded hierarchy, as
-    ``octowrap decimate --cut faces`` does; the command line's default for a chunked file reads
-    and cuts whole chunks instead); with ``target_faces`` or ``ratio`` its finest level is
-    decimated. The GIL is released while it runs.
+    within the bound, stitched crack-free; with ``target_faces`` or ``ratio`` its finest level is
+    decimated. ``cut`` chooses how, as ``octowrap decimate --cut`` does: ``"faces"`` cuts face by
+    face through the decoded hierarchy; ``"chunks"`` (an :class:`MrqFile` of format version 5)
+    takes whole chunks chosen by their geometric errors, reads only those and their ancestors,
+    and reports ``mode`` ``"chunk cut"`` with ``chunk_cut`` (chunks drawn and refined, bytes
+    read); ``"auto"``, the default, is ``"chunks"`` for a chunked :class:`MrqFile` and
+    ``"faces"`` otherwise. The GIL is released while it runs.
 
     >>> import numpy as np, octowrap
     >>> rng = np.random.default_rng(2)
@@ -621,7 +625,8 @@ def decimate(
     ...
     ValueError: ratio must be in (0, 1], not 2.0
     """
-    mesh, raw_h = _source(data, faces, "decimate")
+    if cut not in ("auto", "chunks", "faces"):
+        raise ValueError(f'cut must be "auto", "chunks" or "faces", not {cut!r}')
     value, relative = _error_bound(max_error)
     import json
 
@@ -632,6 +637,14 @@ def decimate(
         else:
             with open(os.fspath(view), encoding="utf-8") as f:
                 camera = f.read()
+    is_cut = target_faces is None and ratio is None and (max_error is not None or view is not None)
+    chunked = isinstance(data, MrqFile) and data.info["version"] >= 5
+    if cut == "chunks" and not (isinstance(data, MrqFile) and is_cut):
+        raise ValueError('cut="chunks" cuts an MrqFile with max_error alone or view')
+    if is_cut and (cut == "chunks" or (cut == "auto" and chunked)) and not lock_border and quads == "auto":
+        raw, report = _octowrap.cut_chunks(data._raw, value, relative, camera, measure)
+        return _mesh_from_raw(raw), json.loads(report)
+    mesh, raw_h = _source(data, faces, "decimate")
     raw, report = _octowrap.decimate(
         mesh, raw_h, target_faces, ratio, value, relative, camera, lock_border, quads, measure
     )

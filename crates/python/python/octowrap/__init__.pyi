@@ -128,6 +128,7 @@ def decimate(
     lock_border: bool = False,
     quads: str = "auto",
     measure: bool = False,
+    cut: str = "auto",
 ) -> Tuple[Mesh, Dict[str, Any]]: ...
 def export_glb(
     data: MeshSource,
