@@ -9,7 +9,8 @@
 // The level checks ask for `mode=levels`. With --view-camera, the page's default mode instead
 // (view mode, for a chunked file): the first frame, then
 // the close-up of the camera file (the schema of `octowrap decimate --view`), what its cut drew
-// and fetched, and the crack check from there.
+// and fetched, and the crack check from there; --truncated and --corrupted pages then show their
+// messages in view mode.
 //
 // --url is the page URL `octowrap view FILE.mrq --no-open` printed; --mrq the same file (for the
 // Draco copy of its finest level); --truncated and --corrupted are pages of other `view`
@@ -140,6 +141,15 @@ try {
       result.direct.crack = await q.evaluate(() => window.octowrap.crackCheck());
     }
     await q.close();
+    // Damaged copies in view mode: a message in the page, not a hang.
+    result.viewBad = {};
+    for (const [name, damaged] of [['truncated', args.truncated], ['corrupted', args.corrupted]]) {
+      if (!damaged) continue;
+      const { page: b, state: s } = await open(damaged, `view-${name}`);
+      result.viewBad[name] = { error: s.error, mode: await b.evaluate(() => window.octowrap.info && window.octowrap.info.mode),
+        shown: s.shown.map((l) => l.level), waitMs: s.waitMs, consoleErrors: s.consoleErrors };
+      await b.close();
+    }
   } else {
     await levelChecks(open);
   }

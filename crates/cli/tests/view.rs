@@ -287,12 +287,21 @@ fn the_viewer_refines_the_dragons_head_view_dependently() {
     if skipped(&server, "MRQ view mode") {
         return;
     }
+    // Damaged copies: cut inside the finest level's chunks; one byte flipped inside a finest chunk.
+    let last = &info.levels[info.levels.len() - 1];
+    let truncated = dir.path().join("truncated.mrq");
+    std::fs::write(&truncated, &bytes[..(last.offset + last.stored_size / 2) as usize]).unwrap();
+    let mut damaged = bytes.clone();
+    damaged[(last.offset + last.stored_size / 3) as usize] ^= 0x10;
+    let corrupted = dir.path().join("corrupted.mrq");
+    std::fs::write(&corrupted, &damaged).unwrap();
+    let (t, c) = (Server::start(&truncated), Server::start(&corrupted));
     let out = support::artefacts();
     let camera = common::root().join("fixtures/cameras/dragon-head.json");
     let run = Command::new("node")
         .arg(support::viewer().join("check-mrq.mjs"))
         .args(["--url", &server.url, "--mrq", mrq.to_str().unwrap(), "--out", out.to_str().unwrap()])
-        .args(["--view-camera", camera.to_str().unwrap()])
+        .args(["--view-camera", camera.to_str().unwrap(), "--truncated", &t.url, "--corrupted", &c.url])
         .output()
         .expect("node runs");
     let r: serde_json::Value = serde_json::from_slice(&run.stdout)
@@ -329,4 +338,15 @@ fn the_viewer_refines_the_dragons_head_view_dependently() {
     let share = cut["stats"]["bytes"].as_f64().unwrap() / bytes.len() as f64;
     assert!(share <= 0.4, "the close-up read {:.1} % of the file", 100.0 * share);
     assert!(direct["crack"]["fraction"].as_f64().unwrap() <= 0.0005, "cracks: {}", direct["crack"]);
+    // Damaged files in view mode: the coarse first frame, then a message naming the damage.
+    let bad = &r["viewBad"];
+    eprintln!("  damaged files in view mode: {bad}");
+    let message =
+        |case: &str| bad[case]["error"].as_str().unwrap_or_else(|| panic!("{case}: no message: {bad}")).to_owned();
+    assert!(message("truncated").contains("truncated file"), "{bad}");
+    assert!(message("corrupted").contains("checksum mismatch in level"), "{bad}");
+    for case in ["truncated", "corrupted"] {
+        assert_eq!(bad[case]["mode"], "view", "{bad}");
+        assert!(!bad[case]["shown"].as_array().unwrap().is_empty(), "{case}: the first frame shows: {bad}");
+    }
 }
