@@ -448,8 +448,7 @@ fn check_count(k: u32, lv: PlainLevel, expect: Option<u32>) -> Result<PlainLevel
 /// parents of the next level's chunks.
 pub struct LevelParts {
     k: u32,
-    /// The level's chunks (indices), in index order, and their decoded blocks.
-    ids: Vec<u32>,
+    /// The level's chunks, decoded, in index order.
     parts: Vec<PlainLevel>,
     /// Chunk index → position in `parts`.
     at: HashMap<u32, usize>,
@@ -493,7 +492,7 @@ pub fn decode_level_parts(
         f += part.parents.len() as u32;
     }
     let at = ids.iter().enumerate().map(|(i, &c)| (c, i)).collect();
-    Ok(LevelParts { k, ids, parts, at, face_at, offsets })
+    Ok(LevelParts { k, parts, at, face_at, offsets })
 }
 
 /// The level of `lp`'s chunks, merged (spec §11.4); `lp` stays the next level's parent.
@@ -509,7 +508,6 @@ pub fn merge_level(pre: &Preamble, lp: &LevelParts) -> Result<PlainLevel, Decode
 /// [`merge_level`] of the last level decoded: its chunks move into the result.
 pub fn merge_last_level(pre: &Preamble, lp: LevelParts) -> Result<PlainLevel, DecodeError> {
     let e = &pre.levels[lp.k as usize];
-    debug_assert_eq!(lp.ids.len(), lp.parts.len());
     merge_chunks(lp.k, lp.parts, &lp.offsets, lp.k - e.cell_depth, Some(e.vertex_count))
 }
 

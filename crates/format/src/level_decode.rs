@@ -48,7 +48,7 @@ pub struct PlainLevel {
 pub struct QuadCache(std::sync::OnceLock<CanonicalQuads>);
 
 /// Per parent face its canonical quad and orientation, or the first face that is not a quad.
-pub type CanonicalQuads = Result<Vec<([u32; 4], u8)>, usize>;
+pub type CanonicalQuads = Result<Vec<crate::topology::Quad>, usize>;
 
 impl QuadCache {
     /// The cached value, computed by `f` on first use.

@@ -15,7 +15,7 @@ pub struct LatticeFaces<'a> {
     /// Per face its slot.
     pub slots: Vec<([u32; 3], u8)>,
     /// Per parent face its canonical quad and orientation.
-    pub parent_quads: std::borrow::Cow<'a, [([u32; 4], u8)]>,
+    pub parent_quads: std::borrow::Cow<'a, [crate::topology::Quad]>,
     /// The smallest and largest predicted key and the number of predicted corners.
     pub name_bounds: Option<(u64, u64, usize)>,
 }

@@ -159,7 +159,7 @@ impl<'a> Parent<'a> {
 
     /// [`Self::canonical_quads`], computed.
     #[allow(clippy::needless_range_loop)]
-    fn compute_canonical_quads(&self) -> Result<Vec<([u32; 4], u8)>, usize> {
+    fn compute_canonical_quads(&self) -> crate::level_decode::CanonicalQuads {
         let (Some(slots), Some(corners)) = (self.slots, self.corners) else { return Err(0) };
         let mut out = Vec::with_capacity(self.face_count());
         for f in 0..self.face_count() {
